@@ -1,0 +1,74 @@
+"""The ``asmplan`` command line: one entry point, one module per subcommand.
+
+Exit codes: 0 success, 1 a planning/physics/check result that failed (with its reason), 2 bad
+input (every problem listed, no traceback), 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+from collections.abc import Sequence
+
+from .knowledge.errors import ProductError
+
+# subcommand name -> module in asmplan.commands defining `register(subparsers)`; the parser
+# each registers carries `func(args) -> int` as its default.
+COMMANDS = ("validate", "graph")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="asmplan",
+        description="Plan robot assembly of a product described in YAML and prove each step in "
+                    "a headless physics simulation.")
+    parser.add_argument("--debug", action="store_true",
+                        help="show Python tracebacks for internal errors")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for name in COMMANDS:
+        importlib.import_module(f"asmplan.commands.{name}").register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the exit code (the console script exits with it)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse already printed usage; bad usage is bad input
+        return 2 if exc.code not in (0, None) else 0
+    try:
+        code = int(args.func(args))
+    except ProductError as exc:
+        for issue in exc.issues:
+            print(issue, file=sys.stderr)
+        n = len(exc.issues)
+        print(f"asmplan: {n} error{'s' if n != 1 else ''} in the input; nothing was planned.",
+              file=sys.stderr)
+        code = 2
+    except KeyboardInterrupt:
+        print("asmplan: interrupted", file=sys.stderr)
+        code = 130
+    except Exception as exc:
+        if getattr(args, "debug", False):
+            raise
+        print(f"asmplan: internal error: {type(exc).__name__}: {exc} "
+              "(run with --debug for the traceback, and please report it)", file=sys.stderr)
+        code = 3
+    return code
+
+
+def entry() -> None:
+    """Console-script entry point.
+
+    Leaves through ``os._exit`` after flushing, so that the nanobind "leaked instances"
+    report printed by OMPL's bindings at interpreter shutdown never reaches the user's
+    terminal (field notes); every file we write is closed and replaced atomically before.
+    """
+    code = main()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)

@@ -1,0 +1,679 @@
+"""Load a product YAML file into a validated :class:`~asmplan.knowledge.model.Product`.
+
+Validation reports every problem at once with file, line, column, key path, what was
+expected and what was found (:class:`~asmplan.knowledge.errors.ProductError`). The format is
+documented in ``docs/product-format.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+import numpy as np
+
+from . import iso286
+from .errors import InputIssue, ProductError, did_you_mean
+from .frames import make_T
+from .materials import Material, builtin_materials
+from .model import (
+    FEMALE_KINDS,
+    MALE_KINDS,
+    AssemblyGroup,
+    Feature,
+    Fixture,
+    Geometry,
+    GraspHint,
+    Gripper,
+    Handling,
+    HoleCut,
+    Mate,
+    Part,
+    PinAdd,
+    Precedence,
+    PrecedenceRule,
+    Primitive,
+    Process,
+    Product,
+    Resources,
+    Robot,
+    Table,
+)
+from .schema import (
+    INVALID,
+    Bool,
+    Context,
+    Field,
+    ListOf,
+    Map,
+    Num,
+    OneOf,
+    Str,
+    Tagged,
+    Vec,
+)
+from .yamlsource import Located, PathKey, load_located
+
+FORMAT_VERSION = 1
+LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254}
+MASS_UNITS = {"kg": 1.0, "g": 1e-3}
+ANGLE_UNITS = {"deg": math.pi / 180.0, "rad": 1.0}
+
+# ---------------------------------------------------------------------------------------------
+# Schema
+# ---------------------------------------------------------------------------------------------
+POSE = Map({"xyz": Field(Vec(3, "length"), default=[0.0, 0.0, 0.0]),
+            "rpy": Field(Vec(3, "angle"), default=[0.0, 0.0, 0.0])}, name="a pose")
+START = Map({"location": Field(Str(expected="a location name (tray, feeder, table)"), default="table"),
+             "xyz": Field(Vec(3, "length"), required=True),
+             "rpy": Field(Vec(3, "angle"), default=[0.0, 0.0, 0.0])}, name="a start pose")
+DIRECTION = Vec(3, nonzero=True)
+
+
+def _hole_depth_check(v: dict[str, Any], path: PathKey, ctx: Context) -> None:
+    if v["depth"] is None and not v["through"]:
+        ctx.error(path, 'missing required key "depth" (a positive length), or set "through: true"')
+
+
+HOLE = Map({
+    "name": Field(Str(expected="a feature name"), required=True),
+    "at": Field(Vec(3, "length"), required=True),
+    "axis": Field(DIRECTION, default=[0.0, 0.0, 1.0]),
+    "diameter": Field(Num("length", positive=True), required=True),
+    "depth": Field(Num("length", positive=True)),
+    "through": Field(Bool(), default=False),
+    "chamfer": Field(Num("length", nonnegative=True), default=0.0),
+}, name="a hole", check_fn=_hole_depth_check)
+PIN = Map({
+    "name": Field(Str(expected="a feature name"), required=True),
+    "at": Field(Vec(3, "length"), required=True),
+    "axis": Field(DIRECTION, default=[0.0, 0.0, 1.0]),
+    "diameter": Field(Num("length", positive=True), required=True),
+    "length": Field(Num("length", positive=True), required=True),
+    "chamfer": Field(Num("length", nonnegative=True), default=0.0),
+}, name="a pin")
+CUTS = {"holes": Field(ListOf(HOLE), default=[]), "pins": Field(ListOf(PIN), default=[])}
+CHILD = Tagged("shape", {
+    "box": Map({"size": Field(Vec(3, "length", positive=True), required=True),
+                "pose": Field(POSE, default=None)}),
+    "cylinder": Map({"diameter": Field(Num("length", positive=True), required=True),
+                     "length": Field(Num("length", positive=True), required=True),
+                     "pose": Field(POSE, default=None)}),
+    "sphere": Map({"diameter": Field(Num("length", positive=True), required=True),
+                   "pose": Field(POSE, default=None)}),
+})
+GEOMETRY = Tagged("type", {
+    "box": Map({"size": Field(Vec(3, "length", positive=True), required=True), **CUTS}),
+    "cylinder": Map({"diameter": Field(Num("length", positive=True), required=True),
+                     "length": Field(Num("length", positive=True), required=True), **CUTS}),
+    "sphere": Map({"diameter": Field(Num("length", positive=True), required=True)}),
+    "composite": Map({"children": Field(ListOf(CHILD, min_len=1), required=True), **CUTS}),
+    "mesh": Map({"file": Field(Str(expected="a mesh file path (STL, OBJ, PLY or STEP)"), required=True),
+                 "units": Field(Str(tuple(LENGTH_UNITS)), default=None)}),
+})
+FEATURE = Map({
+    "name": Field(Str(expected="a feature name"), required=True),
+    "type": Field(Str(("pin", "shaft", "hole", "bore")), required=True),
+    "at": Field(Vec(3, "length"), required=True),
+    "axis": Field(DIRECTION, required=True),
+    "diameter": Field(Num("length", positive=True), required=True),
+    "length": Field(Num("length", positive=True)),
+    "depth": Field(Num("length", positive=True)),
+    "through": Field(Bool(), default=False),
+    "chamfer": Field(Num("length", nonnegative=True), default=0.0),
+}, name="a feature")
+GRASP = Map({
+    "closing_axis": Field(DIRECTION), "approach_axis": Field(DIRECTION),
+    "width": Field(Num("length", positive=True)), "offset": Field(Vec(3, "length")),
+}, name="a grasp hint")
+HANDLING = Map({
+    "insertion_direction": Field(DIRECTION),
+    "grasp": Field(GRASP),
+    "max_clamp_force": Field(Num(positive=True)),
+    "max_speed": Field(Num("speed", positive=True)),
+    "max_acceleration": Field(Num("acceleration", positive=True)),
+}, name="handling knowledge")
+PART = Map({
+    "name": Field(Str(expected="a part name"), required=True),
+    "description": Field(Str(), default=""),
+    "material": Field(Str(expected="a material name")),
+    "mass": Field(Num("mass", positive=True)),
+    "friction": Field(Num(nonnegative=True, maximum=10.0)),
+    "color": Field(Vec(3)),
+    "geometry": Field(GEOMETRY, required=True),
+    "pose": Field(POSE, required=True),
+    "start": Field(START),
+    "fixtured": Field(Bool(), default=False),
+    "features": Field(ListOf(FEATURE), default=[]),
+    "handling": Field(HANDLING),
+}, name="a part")
+CLEARANCE_RANGE = Map({"min": Field(Num("length"), required=True),
+                       "max": Field(Num("length"), required=True)}, name="a clearance range")
+MATE = Map({
+    "name": Field(Str()),
+    "pin": Field(Str(expected='a feature reference "part.feature"'), required=True),
+    "hole": Field(Str(expected='a feature reference "part.feature"'), required=True),
+    "fit": Field(Str(expected='an ISO 286 fit such as "H7/g6"')),
+    "clearance": Field(OneOf({(int, float): Num("length"), dict: CLEARANCE_RANGE},
+                             expected="a diametral clearance (a length or {min, max})")),
+    "interference": Field(Num("length", positive=True)),
+}, name="a mate")
+RULE = Map({"before": Field(Str(expected="a part name"), required=True),
+            "after": Field(Str(expected="a part name"), required=True),
+            "reason": Field(Str(expected="a reason for the rule"), required=True)}, name="a rule")
+GROUP = Map({"parts": Field(ListOf(Str(expected="a part name"), min_len=2), required=True),
+             "reason": Field(Str(expected="a reason for the group"), required=True)}, name="a group")
+PRECEDENCE = Map({"base": Field(Str(expected="a part name")),
+                  "rules": Field(ListOf(RULE), default=[]),
+                  "groups": Field(ListOf(GROUP), default=[])}, name="precedence knowledge")
+PROCESS = Map({
+    "safety_factor": Field(Num(positive=True)),
+    "max_speed": Field(Num("speed", positive=True)),
+    "max_acceleration": Field(Num("acceleration", positive=True)),
+    "insertion_speed": Field(Num("speed", positive=True)),
+    "max_insertion_force": Field(Num(positive=True)),
+    "lift_height": Field(Num("length", positive=True)),
+    "approach_distance": Field(Num("length", positive=True)),
+    "position_tolerance": Field(Num("length", positive=True)),
+    "max_slip": Field(Num("length", positive=True)),
+}, name="process knowledge")
+GRIPPER = Map({
+    "type": Field(Str(("parallel",)), default="parallel"),
+    "stroke": Field(Num("length", positive=True), required=True),
+    "finger": Field(Map({"size": Field(Vec(3, "length", positive=True), required=True),
+                         "friction": Field(Num(positive=True, maximum=10.0), required=True)},
+                        name="finger"), required=True),
+    "max_force": Field(Num(positive=True), required=True),
+    "min_force": Field(Num(nonnegative=True), default=0.0),
+    "mass": Field(Num("mass", positive=True)),
+}, name="a gripper")
+RESOURCES = Map({
+    "gripper": Field(GRIPPER, required=True),
+    "table": Field(Map({"size": Field(Vec(3, "length", positive=True), required=True),
+                        "friction": Field(Num(nonnegative=True, maximum=10.0), default=0.5)},
+                       name="a table"), required=True),
+    "fixtures": Field(ListOf(Map({"name": Field(Str(), required=True),
+                                  "holds": Field(Str(expected="a part name"), required=True),
+                                  "kind": Field(Str(), default="vise")}, name="a fixture")),
+                      default=[]),
+    "robot": Field(Map({"model": Field(Str(), required=True), "base": Field(POSE, default=None),
+                        "reach": Field(Num("length", positive=True), required=True)},
+                       name="a robot")),
+}, name="resources")
+MATERIAL = Map({"density": Field(Num(positive=True), required=True),
+                "friction": Field(Num(nonnegative=True, maximum=10.0), required=True),
+                "color": Field(Vec(3))}, name="a material")
+UNITS = Map({"length": Field(Str(tuple(LENGTH_UNITS)), default="mm"),
+             "mass": Field(Str(tuple(MASS_UNITS)), default="kg"),
+             "angle": Field(Str(tuple(ANGLE_UNITS)), default="deg")}, name="units")
+
+
+class _MaterialTable(Map):
+    """Mapping of user material name -> MATERIAL (any key allowed)."""
+
+    def __init__(self) -> None:
+        super().__init__({}, name="a table of materials")
+
+    def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        if not isinstance(value, dict):
+            return ctx.error(path, f"expected a table of materials (a mapping), found {value!r}")
+        out = {name: MATERIAL.check(v, (*path, name), ctx) for name, v in value.items()}
+        return INVALID if any(v is INVALID for v in out.values()) else out
+
+
+DOCUMENT = Map({
+    "asmplan": Field(Num(integer=True), required=True),
+    "product": Field(Str(expected="the product name"), required=True),
+    "description": Field(Str(), default=""),
+    "units": Field(UNITS, default=None),
+    "placement": Field(POSE, default=None),
+    "materials": Field(_MaterialTable(), default={}),
+    "parts": Field(ListOf(PART, min_len=1), required=True),
+    "mates": Field(ListOf(MATE), default=[]),
+    "precedence": Field(PRECEDENCE, default=None),
+    "process": Field(PROCESS, default=None),
+    "resources": Field(RESOURCES, required=True),
+}, name="a product")
+
+# ---------------------------------------------------------------------------------------------
+# Building the model
+# ---------------------------------------------------------------------------------------------
+
+
+def load_product(path: Path | str, *, display_name: str | None = None) -> Product:
+    """Read, validate and convert a product file.
+
+    Parameters
+    ----------
+    path : path to the YAML file. Mesh files it names are resolved relative to its folder.
+    display_name : how to name the file in messages (default: ``path`` as given).
+
+    Raises
+    ------
+    ProductError
+        With every problem found, each with file, line, column, key path, expected and found.
+    """
+    doc = load_located(path, display_name)
+    return build_product(doc, Path(path).resolve().parent)
+
+
+def _pose(v: dict[str, Any] | None) -> np.ndarray:
+    return np.eye(4) if v is None else make_T(v["xyz"], v["rpy"])
+
+
+def _unit(v: Any) -> np.ndarray:
+    a = np.asarray(v, dtype=float)
+    return a / np.linalg.norm(a)
+
+
+class _Builder:
+    def __init__(self, doc: Located, base_dir: Path):
+        self.doc = doc
+        self.base_dir = base_dir
+        self.ctx = Context(doc, {})
+
+    # -- helpers ---------------------------------------------------------------------------
+    def err(self, path: PathKey, message: str, *, key: bool = False) -> None:
+        self.ctx.error(path, message, key=key)
+
+    def run(self) -> Product:
+        data = self.doc.data
+        if not isinstance(data, dict):
+            raise ProductError([self.doc.issue((), "expected a YAML mapping at the top level "
+                                               "(asmplan, product, parts, ...), found "
+                                               f"{type(data).__name__}")])
+        units = UNITS.check(data.get("units") or {}, ("units",), self.ctx) if "units" in data else \
+            {"length": "mm", "mass": "kg", "angle": "deg"}
+        if units is INVALID:
+            units = {"length": "mm", "mass": "kg", "angle": "deg"}
+            units.update({k: v for k, v in (data.get("units") or {}).items()
+                          if isinstance(v, str) and v in {**LENGTH_UNITS, **MASS_UNITS, **ANGLE_UNITS}})
+        L = LENGTH_UNITS.get(units["length"], 1e-3)
+        self.ctx.scales = {"length": L, "mass": MASS_UNITS.get(units["mass"], 1.0),
+                           "angle": ANGLE_UNITS.get(units["angle"], math.pi / 180), "speed": L,
+                           "acceleration": L}
+        top, _ = DOCUMENT.check_partial(data, (), self.ctx)
+        if top is INVALID:
+            raise ProductError(self.ctx.issues)
+        if isinstance(top.get("asmplan"), int) and top["asmplan"] != FORMAT_VERSION:
+            self.err(("asmplan",), f"expected format version {FORMAT_VERSION}, found {top['asmplan']}")
+
+        materials = dict(builtin_materials())
+        for name, m in (top.get("materials") or {}).items() if top.get("materials") else []:
+            if m is not INVALID:
+                materials[name] = Material(name, m["density"], m["friction"],
+                                           tuple(m["color"]) if m["color"] else (0.7, 0.7, 0.7))
+        raw_parts = data.get("parts") if isinstance(data.get("parts"), list) else []
+        # every part name written down, even in a part that is otherwise invalid, so that
+        # cross-references to it are not reported as unknown on top of the real error
+        self.all_names = [p.get("name") for p in raw_parts if isinstance(p, dict)
+                          and isinstance(p.get("name"), str)]
+        parts = self.build_parts(raw_parts, materials)
+        gripper_etc = top.get("resources")
+        process = self.build_process(top.get("process"))
+        resources = self.build_resources(gripper_etc) if gripper_etc else None
+        mates = self.build_mates(data.get("mates"), parts)
+        precedence = self.build_precedence(top.get("precedence"), data.get("precedence"))
+        if resources is not None:
+            for i, fx in enumerate(resources.fixtures):
+                self.check_part_ref(fx.holds, ("resources", "fixtures", i, "holds"))
+        if self.ctx.issues:
+            raise ProductError(self.ctx.issues)
+        assert resources is not None  # a missing resources section is an issue above
+        return Product(
+            name=top["product"], source=Path(self.doc.file), parts=tuple(parts.values()),
+            mates=tuple(mates), precedence=precedence, process=process, resources=resources,
+            T_world_product=_pose(top.get("placement")), description=top.get("description") or "",
+        )
+
+    # -- parts -----------------------------------------------------------------------------
+    def build_parts(self, raw_parts: list[Any], materials: dict[str, Material]) -> dict[str, Part]:
+        parts: dict[str, Part] = {}
+        first_line: dict[str, int] = {}
+        for i, raw in enumerate(raw_parts):
+            path: PathKey = ("parts", i)
+            v = PART.check(raw, path, self.ctx)
+            name = raw.get("name") if isinstance(raw, dict) else None
+            if isinstance(name, str):
+                if name in first_line:
+                    self.err((*path, "name"), f'duplicate part name "{name}" (first defined on '
+                             f"line {first_line[name]})")
+                    continue
+                first_line[name] = self.doc.where((*path, "name"))[0]
+                if "." in name:
+                    self.err((*path, "name"), f'expected a part name without ".", found "{name}"')
+                    continue
+            if v is INVALID:
+                continue
+            part = self.build_part(v, path, materials)
+            if part is not None:
+                parts[part.name] = part
+        return parts
+
+    def build_part(self, v: dict[str, Any], path: PathKey, materials: dict[str, Material]
+                   ) -> Part | None:
+        name = v["name"]
+        material = None
+        if v["material"] is not None:
+            material = materials.get(v["material"])
+            if material is None:
+                self.err((*path, "material"), f'unknown material "{v["material"]}"'
+                         f"{did_you_mean(v['material'], materials)}; known materials: "
+                         f"{', '.join(sorted(materials))}")
+                return None
+        elif v["mass"] is None:
+            self.err(path, 'expected "material" (to compute the mass) or "mass", found neither')
+            return None
+        friction = v["friction"] if v["friction"] is not None else (
+            material.friction if material else 0.6)
+        color = tuple(v["color"]) if v["color"] else (material.color_rgb if material else (0.7, 0.7, 0.7))
+        geometry = self.build_geometry(v["geometry"], (*path, "geometry"), name)
+        if geometry is None:
+            return None
+        features = self.build_features(name, v, geometry, path)
+        if features is None:
+            return None
+        T_product_part = _pose(v["pose"])
+        if v["start"] is None:
+            T_world_start, location = None, "table"
+        else:
+            T_world_start, location = _pose(v["start"]), v["start"]["location"]
+        handling = self.build_handling(v["handling"])
+        return Part(name=name, geometry=geometry, T_product_part=T_product_part,
+                    T_world_start=T_world_start if T_world_start is not None else np.full((4, 4), np.nan),
+                    start_location=location, material=material, mass_kg=v["mass"],
+                    friction=friction, color_rgb=color, features=features, handling=handling,
+                    fixtured=v["fixtured"])
+
+    def build_geometry(self, g: dict[str, Any], path: PathKey, part: str) -> Geometry | None:
+        kind = g["type"]
+        if kind == "mesh":
+            file = Path(g["file"])
+            full = file if file.is_absolute() else self.base_dir / file
+            if not full.is_file():
+                self.err((*path, "file"), f'mesh file not found: expected a file at "{full}"')
+                return None
+            if full.suffix.lower() not in (".stl", ".obj", ".ply", ".step", ".stp", ".glb", ".off"):
+                self.err((*path, "file"), f'expected an STL, OBJ, PLY, OFF, GLB or STEP file, found '
+                         f'"{full.suffix}"')
+                return None
+            scale = LENGTH_UNITS[g["units"]] if g["units"] else self.ctx.scales["length"]
+            return Geometry(kind="mesh", mesh_file=full, mesh_scale=scale)
+        if kind == "box":
+            prims = (Primitive("box", np.eye(4), size_m=tuple(g["size"])),)
+        elif kind == "cylinder":
+            prims = (Primitive("cylinder", np.eye(4), diameter_m=g["diameter"], length_m=g["length"]),)
+        elif kind == "sphere":
+            prims = (Primitive("sphere", np.eye(4), diameter_m=g["diameter"]),)
+        else:
+            prims = tuple(
+                Primitive(c["shape"], _pose(c["pose"]), size_m=tuple(c.get("size") or (0, 0, 0)),
+                          diameter_m=c.get("diameter") or 0.0, length_m=c.get("length") or 0.0)
+                for c in g["children"])
+        holes = tuple(HoleCut(h["name"], np.asarray(h["at"]), _unit(h["axis"]), h["diameter"],
+                              h["depth"] or 0.0, h["through"], h["chamfer"])
+                      for h in g.get("holes") or [])
+        pins = tuple(PinAdd(p["name"], np.asarray(p["at"]), _unit(p["axis"]), p["diameter"],
+                            p["length"], p["chamfer"]) for p in g.get("pins") or [])
+        ok = True
+        for i, h in enumerate(holes):
+            if h.chamfer_m * 2 >= h.diameter_m:
+                ok = False
+                self.err((*path, "holes", i, "chamfer"), f"expected a chamfer smaller than the "
+                         f"radius {h.diameter_m / 2 * 1e3:g} mm, found {h.chamfer_m * 1e3:g} mm")
+        for i, p in enumerate(pins):
+            if p.chamfer_m * 2 >= p.diameter_m:
+                ok = False
+                self.err((*path, "pins", i, "chamfer"), f"expected a chamfer smaller than the "
+                         f"radius {p.diameter_m / 2 * 1e3:g} mm, found {p.chamfer_m * 1e3:g} mm")
+        return Geometry(kind=kind, primitives=prims, holes=holes, pins=pins) if ok else None
+
+    def build_features(self, part: str, v: dict[str, Any], geometry: Geometry, path: PathKey
+                       ) -> tuple[Feature, ...] | None:
+        features: list[Feature] = []
+        where: dict[str, PathKey] = {}
+        ok = True
+
+        def add(f: Feature, fpath: PathKey) -> None:
+            nonlocal ok
+            if f.name in where:
+                ok = False
+                self.err((*fpath, "name"), f'duplicate feature name "{f.name}" in part "{part}" '
+                         f"(first defined on line {self.doc.where((*where[f.name], 'name'))[0]})")
+                return
+            where[f.name] = fpath
+            features.append(f)
+
+        for i, h in enumerate(geometry.holes):
+            add(Feature(part, h.feature, "hole", h.origin_m, h.axis, h.diameter_m, h.depth_m,
+                        h.chamfer_m, h.through), (*path, "geometry", "holes", i))
+        for i, p in enumerate(geometry.pins):
+            add(Feature(part, p.feature, "pin", p.origin_m, p.axis, p.diameter_m, p.length_m,
+                        p.chamfer_m), (*path, "geometry", "pins", i))
+        for i, f in enumerate(v["features"]):
+            fpath = (*path, "features", i)
+            male = f["type"] in MALE_KINDS
+            length = f["length"] if male else f["depth"]
+            if length is None and not (f["through"] and not male):
+                ok = False
+                need = "length" if male else "depth"
+                self.err(fpath, f'missing required key "{need}" for a {f["type"]} (a positive length)')
+                continue
+            wrong = "depth" if male else "length"
+            if f[wrong] is not None:
+                ok = False
+                right = "length" if male else "depth"
+                self.err((*fpath, wrong), f'a {f["type"]} has a "{right}", not a "{wrong}"', key=True)
+                continue
+            add(Feature(part, f["name"], f["type"], np.asarray(f["at"]), _unit(f["axis"]),
+                        f["diameter"], length or 0.0, f["chamfer"], f["through"]), fpath)
+        return tuple(features) if ok else None
+
+    def build_handling(self, h: dict[str, Any] | None) -> Handling:
+        if h is None:
+            return Handling()
+        grasp = None
+        if h["grasp"] is not None:
+            g = h["grasp"]
+            grasp = GraspHint(closing_axis=_unit(g["closing_axis"]) if g["closing_axis"] else None,
+                              approach_axis=_unit(g["approach_axis"]) if g["approach_axis"] else None,
+                              width_m=g["width"],
+                              offset_m=np.asarray(g["offset"]) if g["offset"] else None)
+        return Handling(
+            insertion_direction=_unit(h["insertion_direction"]) if h["insertion_direction"] else None,
+            grasp=grasp, max_clamp_force_N=h["max_clamp_force"], max_speed_m_s=h["max_speed"],
+            max_acceleration_m_s2=h["max_acceleration"])
+
+    # -- knowledge and resources -----------------------------------------------------------
+    def build_process(self, v: dict[str, Any] | None) -> Process:
+        if not v:
+            return Process()
+        names = {"max_speed": "max_speed_m_s", "max_acceleration": "max_acceleration_m_s2",
+                 "insertion_speed": "insertion_speed_m_s", "max_insertion_force": "max_insertion_force_N",
+                 "lift_height": "lift_height_m", "approach_distance": "approach_distance_m",
+                 "position_tolerance": "position_tolerance_m", "max_slip": "max_slip_m"}
+        return Process(**{names.get(k, k): val for k, val in v.items()
+                          if val is not None and val is not INVALID})
+
+    def build_resources(self, v: dict[str, Any]) -> Resources | None:
+        if any(v.get(k) is INVALID for k in ("gripper", "table", "fixtures", "robot")):
+            return None
+        g = v["gripper"]
+        if g["min_force"] > g["max_force"]:
+            self.err(("resources", "gripper", "min_force"), f"expected min_force <= max_force "
+                     f"({g['max_force']:g} N), found {g['min_force']:g} N")
+        gripper = Gripper(stroke_m=g["stroke"], finger_size_m=np.asarray(g["finger"]["size"]),
+                          finger_friction=g["finger"]["friction"], max_force_N=g["max_force"],
+                          min_force_N=g["min_force"], mass_kg=g["mass"] or 0.5)
+        table = Table(np.asarray(v["table"]["size"]), v["table"]["friction"])
+        fixtures = tuple(Fixture(f["name"], f["holds"], f["kind"]) for f in v["fixtures"])
+        robot = None
+        if v["robot"]:
+            r = v["robot"]
+            robot = Robot(r["model"], _pose(r["base"]), r["reach"])
+        return Resources(gripper, table, fixtures, robot)
+
+    def check_part_ref(self, name: str, path: PathKey) -> bool:
+        if name in self.all_names:
+            return True
+        self.err(path, f'unknown part "{name}"{did_you_mean(name, self.all_names)}; known parts: '
+                 f'{", ".join(sorted(self.all_names))}')
+        return False
+
+    def build_mates(self, raw: Any, parts: dict[str, Part]) -> list[Mate]:
+        mates: list[Mate] = []
+        if not isinstance(raw, list):
+            return mates
+        names: dict[str, int] = {}
+        for i, item in enumerate(raw):
+            path: PathKey = ("mates", i)
+            v = MATE.check(item, path, self.ctx)
+            if v is INVALID:
+                continue
+            pin = self.resolve_feature(v["pin"], (*path, "pin"), parts, MALE_KINDS)
+            hole = self.resolve_feature(v["hole"], (*path, "hole"), parts, FEMALE_KINDS)
+            if pin is None or hole is None:
+                continue
+            if pin.part == hole.part:
+                self.err(path, "expected a pin and a hole on two different parts, found both on "
+                         f'"{pin.part}"')
+                continue
+            name = v["name"] or f"{pin.ref}->{hole.ref}"
+            if name in names:
+                self.err((*path, "name"), f'duplicate mate name "{name}" (first on line {names[name]})')
+                continue
+            names[name] = self.doc.where(path)[0]
+            given = [k for k in ("fit", "clearance", "interference") if v[k] is not None]
+            if len(given) > 1:
+                self.err((*path, given[1]), f"expected one of fit, clearance or interference, "
+                         f"found {' and '.join(given)}", key=True)
+                continue
+            clearance = self.mate_clearance(v, path, pin, hole)
+            if clearance is None:
+                continue
+            mates.append(Mate(name, pin.part, pin.name, hole.part, hole.name, *clearance,
+                              fit=iso286_normal(v["fit"]) if v["fit"] else None))
+        return mates
+
+    def mate_clearance(self, v: dict[str, Any], path: PathKey, pin: Feature, hole: Feature
+                       ) -> tuple[float, float] | None:
+        mm = 1e3
+        if v["fit"] is None and v["clearance"] is None and v["interference"] is None:
+            c = hole.diameter_m - pin.diameter_m
+            if c < 0:
+                self.err(path, f"pin {pin.ref} ({pin.diameter_m * mm:g} mm) is larger than hole "
+                         f"{hole.ref} ({hole.diameter_m * mm:g} mm); expected a clearance, or declare "
+                         f'"interference" or an ISO "fit"')
+                return None
+            return c, c
+        if abs(pin.diameter_m - hole.diameter_m) > 1e-9:
+            key = next(k for k in ("fit", "clearance", "interference") if v[k] is not None)
+            if key == "fit" and pin.diameter_m > hole.diameter_m:
+                try:
+                    kind = iso286.fit(v["fit"], hole.diameter_m).kind
+                except iso286.FitError:
+                    kind = "unknown"
+                if kind == "clearance":
+                    self.err((*path, "fit"), f"pin {pin.ref} ({pin.diameter_m * mm:g} mm) is larger "
+                             f"than hole {hole.ref} ({hole.diameter_m * mm:g} mm) under the clearance "
+                             f'fit "{v["fit"]}"; expected equal nominal diameters')
+                    return None
+            self.err((*path, key), f"expected equal nominal diameters for a {key} (the {key} gives "
+                     f"the deviation), found pin {pin.ref} {pin.diameter_m * mm:g} mm and hole "
+                     f"{hole.ref} {hole.diameter_m * mm:g} mm", key=True)
+            return None
+        if v["fit"] is not None:
+            try:
+                f = iso286.fit(v["fit"], hole.diameter_m)
+            except iso286.FitError as exc:
+                self.err((*path, "fit"), str(exc))
+                return None
+            return f.clearance_min_m, f.clearance_max_m
+        if v["interference"] is not None:
+            return -v["interference"], -v["interference"]
+        c = v["clearance"]
+        if isinstance(c, dict):
+            if c["min"] > c["max"]:
+                self.err((*path, "clearance"), f"expected min <= max, found min {c['min'] * mm:g} mm "
+                         f"> max {c['max'] * mm:g} mm")
+                return None
+            return c["min"], c["max"]
+        return c, c
+
+    def resolve_feature(self, ref: str, path: PathKey, parts: dict[str, Part],
+                        kinds: tuple[str, ...]) -> Feature | None:
+        if ref.count(".") != 1:
+            self.err(path, f'expected a feature reference "part.feature", found "{ref}"')
+            return None
+        part_name, feat = ref.split(".")
+        if not self.check_part_ref(part_name, path):
+            return None
+        part = parts.get(part_name)
+        if part is None:  # the part itself is invalid; its error is reported already
+            return None
+        names = [f.name for f in part.features]
+        if feat not in names:
+            self.err(path, f'unknown feature "{feat}" on part "{part_name}"{did_you_mean(feat, names)}'
+                     f'; its features: {", ".join(names) or "none"}')
+            return None
+        f = part.feature(feat)
+        if f.kind not in kinds:
+            self.err(path, f"expected a {' or '.join(kinds)}, found {ref} which is a {f.kind}")
+            return None
+        return f
+
+    def build_precedence(self, v: dict[str, Any] | None, raw: Any) -> Precedence:
+        if not v:
+            return Precedence(base=None)
+        base = v.get("base")
+        if base not in (None, INVALID):
+            self.check_part_ref(base, ("precedence", "base"))
+        rules: list[PrecedenceRule] = []
+        graph = nx.DiGraph()
+        for i, r in enumerate(v.get("rules") or []):
+            path: PathKey = ("precedence", "rules", i)
+            ok = self.check_part_ref(r["before"], (*path, "before"))
+            ok = self.check_part_ref(r["after"], (*path, "after")) and ok
+            if ok and r["before"] == r["after"]:
+                self.err((*path, "after"), "expected two different parts, found "
+                         f'"{r["after"]}" before itself')
+                ok = False
+            if ok:
+                line = self.doc.where(path)[0]
+                rules.append(PrecedenceRule(r["before"], r["after"], r["reason"], line))
+                graph.add_edge(r["before"], r["after"], index=i, line=line)
+        groups: list[AssemblyGroup] = []
+        for i, g in enumerate(v.get("groups") or []):
+            ok = all([self.check_part_ref(p, ("precedence", "groups", i, "parts", j))
+                      for j, p in enumerate(g["parts"])])
+            if ok:
+                groups.append(AssemblyGroup(tuple(g["parts"]), g["reason"]))
+        try:
+            cycle = nx.find_cycle(graph)
+        except nx.NetworkXNoCycle:
+            cycle = None
+        if cycle:
+            names = " -> ".join([cycle[0][0], *(e[1] for e in cycle)])
+            lines = ", ".join(str(graph.edges[e]["line"]) for e in cycle)
+            first = min(graph.edges[e]["index"] for e in cycle)
+            self.err(("precedence", "rules", first), f"precedence rules form a cycle: {names} "
+                     f"(rules on lines {lines}); expected an order that can be met")
+        return Precedence(base=base if base is not INVALID else None, rules=tuple(rules),
+                          groups=tuple(groups))
+
+
+def iso286_normal(designation: str) -> str:
+    """Normalise ``"H7-g6"``/``"H7 g6"`` to ``"H7/g6"``."""
+    for sep in ("-", " "):
+        designation = designation.replace(sep, "/")
+    return designation
+
+
+def build_product(doc: Located, base_dir: Path) -> Product:
+    """Validate a parsed document and build the :class:`Product` (see :func:`load_product`)."""
+    return _Builder(doc, base_dir).run()
+
+
+__all__ = ["FORMAT_VERSION", "InputIssue", "ProductError", "build_product", "load_product"]

@@ -1,0 +1,41 @@
+"""The built-in material table (density, friction, display colour)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache
+from importlib import resources
+
+import yaml
+
+
+@dataclass(frozen=True)
+class Material:
+    """A material: ``density_kg_m3`` and the per-body friction coefficient ``friction``.
+
+    PyBullet multiplies the coefficients of the two bodies in contact, so ``friction`` is
+    chosen such that the product matches handbook values for common pairs.
+    """
+
+    name: str
+    density_kg_m3: float
+    friction: float
+    color_rgb: tuple[float, float, float] = (0.7, 0.7, 0.7)
+
+    def __post_init__(self) -> None:
+        if self.density_kg_m3 <= 0:
+            raise ValueError(f"material {self.name}: density must be positive, found {self.density_kg_m3}")
+        if self.friction < 0:
+            raise ValueError(f"material {self.name}: friction must be >= 0, found {self.friction}")
+
+
+@cache
+def builtin_materials() -> dict[str, Material]:
+    """The built-in table, keyed by name."""
+    text = resources.files("asmplan.knowledge").joinpath("data/materials.yaml").read_text("utf-8")
+    table = yaml.safe_load(text)
+    return {
+        name: Material(name, float(row["density"]), float(row["friction"]),
+                       tuple(float(c) for c in row.get("color", (0.7, 0.7, 0.7))))
+        for name, row in table.items()
+    }

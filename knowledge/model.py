@@ -1,0 +1,323 @@
+"""The typed product model: what a product is, independent of where its parts are now.
+
+Everything is SI (m, kg, s, N, rad) and frozen. Poses are ``(4, 4)`` arrays named
+``T_<to>_<from>``: ``Part.T_product_part`` is the assembled pose in the product frame,
+``Part.T_world_start`` the pose the part is picked from (tray, feeder, table), and
+``Product.T_world_product`` where the assembled product sits on the table (world z = 0 is the
+table top).
+
+Feature frames: a feature's ``origin_m`` and ``axis`` are in the part frame. For a pin or
+shaft the origin is the centre of its root (where it leaves the body) and the axis points
+from root to tip. For a hole or bore the origin is the centre of its mouth and the axis is
+the outward normal of the face it opens in. When a pin is seated in its hole, the pin axis is
+opposite the hole axis and the pin root meets the hole mouth; the insertion direction of the
+pin's part is therefore the pin axis in the world (= minus the hole axis).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from .materials import Material
+
+FeatureKind = Literal["pin", "shaft", "hole", "bore"]
+MALE_KINDS = ("pin", "shaft")
+FEMALE_KINDS = ("hole", "bore")
+
+
+def _readonly(a: object, shape: tuple[int, ...], name: str) -> np.ndarray:
+    arr = np.array(a, dtype=float)
+    if arr.shape != shape:
+        raise ValueError(f"{name}: expected shape {shape}, found {arr.shape}")
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Primitive:
+    """A solid primitive placed in the part frame.
+
+    ``shape`` box: ``size_m`` (3,) full extents, centred. cylinder: ``diameter_m`` and
+    ``length_m`` along the local z axis, centred. sphere: ``diameter_m``.
+    """
+
+    shape: Literal["box", "cylinder", "sphere"]
+    T_part_shape: np.ndarray
+    size_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    diameter_m: float = 0.0
+    length_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "T_part_shape", _readonly(self.T_part_shape, (4, 4), "T_part_shape"))
+
+
+@dataclass(frozen=True, eq=False)
+class HoleCut:
+    """A cylindrical hole cut into a part's primitives (becomes a ``hole`` feature)."""
+
+    feature: str
+    origin_m: np.ndarray
+    axis: np.ndarray
+    diameter_m: float
+    depth_m: float
+    through: bool
+    chamfer_m: float
+
+
+@dataclass(frozen=True, eq=False)
+class PinAdd:
+    """A cylindrical pin added to a part's primitives (becomes a ``pin`` feature)."""
+
+    feature: str
+    origin_m: np.ndarray
+    axis: np.ndarray
+    diameter_m: float
+    length_m: float
+    chamfer_m: float
+
+
+@dataclass(frozen=True, eq=False)
+class Geometry:
+    """A part's shape: primitives (union) with holes cut and pins added, or a mesh file.
+
+    ``kind`` is the YAML ``type`` (box, cylinder, composite, mesh). For ``mesh``,
+    ``mesh_file`` is an absolute path and ``mesh_scale`` converts its units to metres.
+    """
+
+    kind: Literal["box", "cylinder", "sphere", "composite", "mesh"]
+    primitives: tuple[Primitive, ...] = ()
+    holes: tuple[HoleCut, ...] = ()
+    pins: tuple[PinAdd, ...] = ()
+    mesh_file: Path | None = None
+    mesh_scale: float = 1.0
+
+
+@dataclass(frozen=True, eq=False)
+class Feature:
+    """A mating feature of a part, in the part frame (see the module docstring)."""
+
+    part: str
+    name: str
+    kind: FeatureKind
+    origin_m: np.ndarray
+    axis: np.ndarray
+    diameter_m: float
+    length_m: float  # pin/shaft length, hole/bore depth
+    chamfer_m: float = 0.0
+    through: bool = False
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "origin_m", _readonly(self.origin_m, (3,), "origin_m"))
+        axis = np.asarray(self.axis, dtype=float)
+        norm = float(np.linalg.norm(axis))
+        if norm == 0:
+            raise ValueError(f"feature {self.part}.{self.name}: axis must be non-zero")
+        object.__setattr__(self, "axis", _readonly(axis / norm, (3,), "axis"))
+
+    @property
+    def is_male(self) -> bool:
+        return self.kind in MALE_KINDS
+
+    @property
+    def ref(self) -> str:
+        return f"{self.part}.{self.name}"
+
+
+@dataclass(frozen=True)
+class Mate:
+    """A pin (or shaft) seated in a hole (or bore), with its diametral clearance range.
+
+    ``clearance_min_m``/``clearance_max_m`` are hole minus pin diameter; negative means
+    interference. ``fit`` is the ISO 286 designation when one was given.
+    """
+
+    name: str
+    pin_part: str
+    pin_feature: str
+    hole_part: str
+    hole_feature: str
+    clearance_min_m: float
+    clearance_max_m: float
+    fit: str | None = None
+
+    @property
+    def kind(self) -> Literal["clearance", "transition", "interference"]:
+        if self.clearance_min_m >= 0:
+            return "clearance"
+        if self.clearance_max_m <= 0:
+            return "interference"
+        return "transition"
+
+    @property
+    def clearance_mean_m(self) -> float:
+        return 0.5 * (self.clearance_min_m + self.clearance_max_m)
+
+
+@dataclass(frozen=True, eq=False)
+class GraspHint:
+    """Process knowledge on how to grip a part: the closing axis in the part frame, an
+    optional finger opening and an offset of the grasp centre from the part origin."""
+
+    closing_axis: np.ndarray | None = None
+    approach_axis: np.ndarray | None = None
+    width_m: float | None = None
+    offset_m: np.ndarray | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Handling:
+    """Per-part process knowledge; ``None`` means "use the product-wide default"."""
+
+    insertion_direction: np.ndarray | None = None
+    grasp: GraspHint | None = None
+    max_clamp_force_N: float | None = None
+    max_speed_m_s: float | None = None
+    max_acceleration_m_s2: float | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Part:
+    """One part of the product."""
+
+    name: str
+    geometry: Geometry
+    T_product_part: np.ndarray
+    T_world_start: np.ndarray
+    start_location: str
+    material: Material | None
+    mass_kg: float | None
+    friction: float
+    color_rgb: tuple[float, float, float]
+    features: tuple[Feature, ...]
+    handling: Handling = field(default_factory=Handling)
+    fixtured: bool = False
+
+    def feature(self, name: str) -> Feature:
+        for f in self.features:
+            if f.name == name:
+                return f
+        raise KeyError(f'part "{self.name}" has no feature "{name}"; it has: '
+                       f'{", ".join(f.name for f in self.features) or "none"}')
+
+
+@dataclass(frozen=True)
+class PrecedenceRule:
+    """Knowledge: ``before`` must be assembled before ``after``, for ``reason``."""
+
+    before: str
+    after: str
+    reason: str
+    source_line: int = 0
+
+
+@dataclass(frozen=True)
+class AssemblyGroup:
+    """Knowledge: these parts are assembled one right after another."""
+
+    parts: tuple[str, ...]
+    reason: str
+
+
+@dataclass(frozen=True)
+class Precedence:
+    base: str | None
+    rules: tuple[PrecedenceRule, ...] = ()
+    groups: tuple[AssemblyGroup, ...] = ()
+
+
+@dataclass(frozen=True)
+class Process:
+    """Product-wide process knowledge, SI."""
+
+    safety_factor: float = 2.0
+    max_speed_m_s: float = 0.25
+    max_acceleration_m_s2: float = 2.0
+    insertion_speed_m_s: float = 0.01
+    max_insertion_force_N: float = 50.0
+    lift_height_m: float = 0.05
+    approach_distance_m: float = 0.02
+    position_tolerance_m: float = 0.5e-3
+    max_slip_m: float = 1.0e-3
+
+
+@dataclass(frozen=True, eq=False)
+class Gripper:
+    """A parallel two-finger gripper. ``stroke_m`` is the largest opening between the pads;
+    ``finger_size_m`` is (width along x, thickness along the closing axis, length along z)."""
+
+    stroke_m: float
+    finger_size_m: np.ndarray
+    finger_friction: float
+    max_force_N: float
+    min_force_N: float = 0.0
+    mass_kg: float = 0.5
+    palm_size_m: np.ndarray = field(default_factory=lambda: np.array([0.04, 0.1, 0.03]))
+
+
+@dataclass(frozen=True, eq=False)
+class Table:
+    """The work table; its top face is the world plane z = 0."""
+
+    size_m: np.ndarray
+    friction: float = 0.5
+
+
+@dataclass(frozen=True)
+class Fixture:
+    name: str
+    holds: str
+    kind: str = "vise"
+
+
+@dataclass(frozen=True, eq=False)
+class Robot:
+    model: str
+    T_world_base: np.ndarray
+    reach_m: float
+
+
+@dataclass(frozen=True, eq=False)
+class Resources:
+    gripper: Gripper
+    table: Table
+    fixtures: tuple[Fixture, ...] = ()
+    robot: Robot | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Product:
+    """A validated product: parts, mates, knowledge and the cell's resources."""
+
+    name: str
+    source: Path
+    parts: tuple[Part, ...]
+    mates: tuple[Mate, ...]
+    precedence: Precedence
+    process: Process
+    resources: Resources
+    T_world_product: np.ndarray
+    description: str = ""
+
+    def part(self, name: str) -> Part:
+        for p in self.parts:
+            if p.name == name:
+                return p
+        raise KeyError(f'unknown part "{name}"; known parts: {", ".join(self.part_names)}')
+
+    @property
+    def part_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parts)
+
+    def feature(self, part: str, name: str) -> Feature:
+        return self.part(part).feature(name)
+
+    def T_world_assembled(self, part: str) -> np.ndarray:
+        """World pose (4, 4) of ``part`` in the assembled product."""
+        return self.T_world_product @ self.part(part).T_product_part
+
+    def is_fixtured(self, part: str) -> bool:
+        return self.part(part).fixtured or any(f.holds == part for f in self.resources.fixtures)

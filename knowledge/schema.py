@@ -1,0 +1,244 @@
+"""A small declarative schema for YAML input that converts units and collects every error.
+
+Each spec checks a value at a key path and returns the converted value, or :data:`INVALID`
+after recording an :class:`~asmplan.knowledge.errors.InputIssue` that says what was expected
+and what was found. Unknown keys get a did-you-mean. Units are applied here, once: a
+``Num(unit="length")`` read from a file in millimetres comes back in metres.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from .errors import InputIssue, did_you_mean
+from .yamlsource import Located, PathKey
+
+
+class _Invalid:
+    def __repr__(self) -> str:
+        return "INVALID"
+
+    def __bool__(self) -> bool:
+        return False
+
+
+INVALID: Any = _Invalid()
+
+
+@dataclass
+class Context:
+    """Where errors go and which unit scales apply."""
+
+    doc: Located
+    scales: dict[str, float]
+    issues: list[InputIssue] = field(default_factory=list)
+
+    def error(self, path: PathKey, message: str, *, key: bool = False) -> Any:
+        self.issues.append(self.doc.issue(path, message, key=key))
+        return INVALID
+
+
+def describe(value: Any) -> str:
+    """A short description of a found value for error messages."""
+    if value is None:
+        return "nothing (null)"
+    if isinstance(value, bool):
+        return f"boolean {str(value).lower()}"
+    if isinstance(value, (int, float)):
+        return f"number {value:g}"
+    if isinstance(value, str):
+        return f'text "{value}"' if len(value) < 40 else f'text "{value[:37]}..."'
+    if isinstance(value, list):
+        return f"a list of {len(value)}"
+    if isinstance(value, dict):
+        return "a mapping"
+    return type(value).__name__
+
+
+class Spec:
+    """Base class: ``check(value, path, ctx)`` returns the converted value or INVALID."""
+
+    expected = "a value"
+
+    def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        raise NotImplementedError
+
+
+@dataclass
+class Str(Spec):
+    choices: tuple[str, ...] | None = None
+    expected: str = "text"
+
+    def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        if not isinstance(value, str) or not value.strip():
+            return ctx.error(path, f"expected {self.expected}, found {describe(value)}")
+        if self.choices is not None and value not in self.choices:
+            return ctx.error(path, f'expected one of {", ".join(self.choices)}, found "{value}"'
+                             + did_you_mean(value, self.choices))
+        return value
+
+
+@dataclass
+class Bool(Spec):
+    def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        if not isinstance(value, bool):
+            return ctx.error(path, f"expected true or false, found {describe(value)}")
+        return value
+
+
+@dataclass
+class Num(Spec):
+    """A real number; ``unit`` names a scale in the context (length, mass, angle, speed...)."""
+
+    unit: str | None = None
+    positive: bool = False
+    nonnegative: bool = False
+    maximum: float | None = None
+    integer: bool = False
+
+    def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return ctx.error(path, f"expected {self._what()}, found {describe(value)}")
+        if not math.isfinite(value):
+            return ctx.error(path, f"expected a finite number, found {value}")
+        if self.integer and not isinstance(value, int):
+            return ctx.error(path, f"expected a whole number, found {value:g}")
+        if self.positive and value <= 0:
+            return ctx.error(path, f"expected a positive {self._noun()}, found {value:g}")
+        if self.nonnegative and value < 0:
+            return ctx.error(path, f"expected a {self._noun()} >= 0, found {value:g}")
+        if self.maximum is not None and value > self.maximum:
+            return ctx.error(path, f"expected a {self._noun()} <= {self.maximum:g}, found {value:g}")
+        return value * ctx.scales.get(self.unit, 1.0) if self.unit else value
+
+    def _noun(self) -> str:
+        return self.unit or "number"
+
+    def _what(self) -> str:
+        return f"a number ({self.unit})" if self.unit else "a number"
+
+
+@dataclass
+class Vec(Spec):
+    """A list of ``n`` numbers, optionally unit-scaled and non-zero."""
+
+    n: int = 3
+    unit: str | None = None
+    positive: bool = False
+    nonzero: bool = False
+
+    def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        if not isinstance(value, list) or len(value) != self.n:
+            return ctx.error(path, f"expected a list of {self.n} numbers, found {describe(value)}")
+        item = Num(unit=self.unit, positive=self.positive)
+        out = [item.check(v, (*path, i), ctx) for i, v in enumerate(value)]
+        if any(v is INVALID for v in out):
+            return INVALID
+        if self.nonzero and all(v == 0 for v in out):
+            return ctx.error(path, "expected a non-zero vector, found [0, 0, 0]")
+        return out
+
+
+@dataclass
+class ListOf(Spec):
+    item: Spec
+    min_len: int = 0
+
+    def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        if not isinstance(value, list):
+            return ctx.error(path, f"expected a list, found {describe(value)}")
+        if len(value) < self.min_len:
+            return ctx.error(path, f"expected at least {self.min_len} entries, found {len(value)}")
+        out = [self.item.check(v, (*path, i), ctx) for i, v in enumerate(value)]
+        return INVALID if any(v is INVALID for v in out) else out
+
+
+@dataclass
+class Field:
+    spec: Spec
+    required: bool = False
+    default: Any = None
+
+
+@dataclass
+class Map(Spec):
+    """A mapping with known keys; unknown keys are errors with a did-you-mean."""
+
+    fields: Mapping[str, Field]
+    name: str = "mapping"
+    check_fn: Callable[[dict[str, Any], PathKey, Context], None] | None = None
+
+    def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        out, ok = self.check_partial(value, path, ctx)
+        return out if ok else INVALID
+
+    def check_partial(self, value: Any, path: PathKey, ctx: Context) -> tuple[Any, bool]:
+        """Like :meth:`check`, but return the entries that are valid (others are INVALID),
+        so that later checks can still run on the rest of the document."""
+        if not isinstance(value, dict):
+            return ctx.error(path, f"expected {self.name} (a mapping), found {describe(value)}"), False
+        ok = True
+        for key in value:
+            if key not in self.fields:
+                ok = False
+                known = ", ".join(self.fields)
+                ctx.error((*path, key), f'unknown key "{key}"{did_you_mean(str(key), self.fields)}'
+                          f"; expected one of: {known}", key=True)
+        out: dict[str, Any] = {}
+        for key, fld in self.fields.items():
+            if key in value:
+                out[key] = fld.spec.check(value[key], (*path, key), ctx)
+                ok = ok and out[key] is not INVALID
+            elif fld.required:
+                ok = False
+                ctx.error(path, f'missing required key "{key}" ({fld.spec.expected})')
+            else:
+                out[key] = fld.default
+        if ok and self.check_fn is not None:
+            before = len(ctx.issues)
+            self.check_fn(out, path, ctx)
+            ok = len(ctx.issues) == before
+        return out, ok
+
+
+@dataclass
+class Tagged(Spec):
+    """A mapping whose ``tag`` key (e.g. ``type``) selects the Map spec for the rest."""
+
+    tag: str
+    variants: Mapping[str, Map]
+
+    def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        if not isinstance(value, dict):
+            return ctx.error(path, f"expected a mapping with a \"{self.tag}\", found {describe(value)}")
+        kind = value.get(self.tag)
+        if kind is None:
+            return ctx.error(path, f'missing required key "{self.tag}" (one of: '
+                             f'{", ".join(self.variants)})')
+        if kind not in self.variants:
+            return ctx.error((*path, self.tag), f'unknown {self.tag} "{kind}"'
+                             f"{did_you_mean(str(kind), self.variants)}; expected one of: "
+                             f'{", ".join(self.variants)}')
+        rest = {k: v for k, v in value.items() if k != self.tag}
+        out = self.variants[kind].check(rest, path, ctx)
+        if out is INVALID:
+            return INVALID
+        out[self.tag] = kind
+        return out
+
+
+@dataclass
+class OneOf(Spec):
+    """Either of two specs chosen by the YAML type of the value (number vs mapping, ...)."""
+
+    by_type: Mapping[type, Spec]
+    expected: str = "a value"
+
+    def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        for typ, spec in self.by_type.items():
+            if isinstance(value, typ) and not (isinstance(value, bool) and typ is not bool):
+                return spec.check(value, path, ctx)
+        return ctx.error(path, f"expected {self.expected}, found {describe(value)}")

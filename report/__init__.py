@@ -1,0 +1,1 @@
+"""Reports: offscreen rendering, plots and HTML built from plan and simulation results."""
