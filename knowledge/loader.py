@@ -346,6 +346,9 @@ class _Builder:
                     self.err((*path, "name"), f'expected a part name without ".", found "{name}"')
                     continue
             if v is INVALID:
+                # still report an unknown material of a part that has other errors too
+                if isinstance(raw, dict) and isinstance(raw.get("material"), str):
+                    self.material(raw["material"], (*path, "material"), materials)
                 continue
             part = self.build_part(v, path, materials)
             if part is not None:
@@ -357,11 +360,8 @@ class _Builder:
         name = v["name"]
         material = None
         if v["material"] is not None:
-            material = materials.get(v["material"])
+            material = self.material(v["material"], (*path, "material"), materials)
             if material is None:
-                self.err((*path, "material"), f'unknown material "{v["material"]}"'
-                         f"{did_you_mean(v['material'], materials)}; known materials: "
-                         f"{', '.join(sorted(materials))}")
                 return None
         elif v["mass"] is None:
             self.err(path, 'expected "material" (to compute the mass) or "mass", found neither')
@@ -386,6 +386,13 @@ class _Builder:
                     start_location=location, material=material, mass_kg=v["mass"],
                     friction=friction, color_rgb=color, features=features, handling=handling,
                     fixtured=v["fixtured"])
+
+    def material(self, name: str, path: PathKey, materials: dict[str, Material]) -> Material | None:
+        if name in materials:
+            return materials[name]
+        self.err(path, f'unknown material "{name}"{did_you_mean(name, materials)}; known materials: '
+                 f"{', '.join(sorted(materials))}")
+        return None
 
     def build_geometry(self, g: dict[str, Any], path: PathKey, part: str) -> Geometry | None:
         kind = g["type"]
@@ -588,7 +595,8 @@ class _Builder:
             try:
                 f = iso286.fit(v["fit"], hole.diameter_m)
             except iso286.FitError as exc:
-                self.err((*path, "fit"), str(exc))
+                self.err((*path, "fit"), f'invalid ISO 286 fit "{v["fit"]}" at '
+                         f"{hole.diameter_m * mm:g} mm: {exc}")
                 return None
             return f.clearance_min_m, f.clearance_max_m
         if v["interference"] is not None:

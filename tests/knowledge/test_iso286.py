@@ -12,6 +12,9 @@ import math
 from pathlib import Path
 
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
 from asmplan.knowledge.iso286 import (
     SUPPORTED_GRADES,
     Fit,
@@ -22,8 +25,6 @@ from asmplan.knowledge.iso286 import (
     supported_letters,
     tolerance_zone,
 )
-from hypothesis import assume, given, settings
-from hypothesis import strategies as st
 
 # --------------------------------------------------------------------------------------
 # Named sources
@@ -58,16 +59,14 @@ def _um_nm(x_um: float) -> int:
 # --------------------------------------------------------------------------------------
 # 1. The project's check values (/work/shared/reference/iso286_check_values.csv)
 # --------------------------------------------------------------------------------------
-_CSV_CANDIDATES = (
-    Path(__file__).resolve().parents[1] / "fixtures" / "iso286_check_values.csv",
-    Path("/work/shared/reference/iso286_check_values.csv"),
-)
+# ../shared sits beside the repository's checkout (also in CI); a missing file is an error,
+# not a silent skip.
+_CSV = Path(__file__).resolve().parents[2].parent / "shared" / "reference" / "iso286_check_values.csv"
 
 
 def _check_value_rows() -> list[tuple[str, float, str, int, int]]:
-    path = next((p for p in _CSV_CANDIDATES if p.is_file()), None)
-    if path is None:
-        return []
+    path = _CSV
+    assert path.is_file(), f"reference check values not found at {path}"
     lines = [ln for ln in path.read_text().splitlines() if ln.strip() and not ln.startswith("#")]
     rows = []
     for rec in csv.DictReader(lines):
@@ -82,9 +81,8 @@ def _check_value_rows() -> list[tuple[str, float, str, int, int]]:
 _CHECK_ROWS = _check_value_rows()
 
 
-@pytest.mark.skipif(not _CHECK_ROWS, reason=f"check-value CSV not found in {_CSV_CANDIDATES}")
 @pytest.mark.parametrize(("size_range", "nominal_mm", "designation", "cmin_um", "cmax_um"),
-                         _CHECK_ROWS or [("", 0.0, "", 0, 0)])  # fmt: skip
+                         _CHECK_ROWS)  # fmt: skip
 def test_reproduces_project_check_values(
     size_range: str, nominal_mm: float, designation: str, cmin_um: int, cmax_um: int
 ) -> None:
@@ -94,8 +92,6 @@ def test_reproduces_project_check_values(
 
 
 def test_check_value_csv_has_expected_shape() -> None:
-    if not _CHECK_ROWS:
-        pytest.skip("check-value CSV not present")
     assert len(_CHECK_ROWS) == 12  # 4 size ranges x 3 fits
 
 

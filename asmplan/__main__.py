@@ -1,0 +1,5 @@
+"""``python -m asmplan``: the same as the ``asmplan`` console script."""
+
+from .cli import entry
+
+entry()
