@@ -1,0 +1,1 @@
+"""Bundled example products (YAML), shipped with the package; see README."""
