@@ -1,0 +1,107 @@
+"""The example products load into the typed model in SI units; their graphs are sound."""
+
+from __future__ import annotations
+
+import json
+
+import networkx as nx
+import numpy as np
+import pytest
+
+from asmplan.cli import main
+from asmplan.knowledge.graphs import liaison_graph, precedence_graph
+from asmplan.knowledge.loader import load_product
+from asmplan.knowledge.yamlsource import parse_located
+from tests.conftest import EXAMPLE_NAMES, example_path
+
+
+@pytest.mark.parametrize("name", EXAMPLE_NAMES)
+def test_examples_validate(name: str, capsys) -> None:
+    assert main(["validate", str(example_path(name))]) == 0
+    assert "valid product" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("name", EXAMPLE_NAMES)
+def test_precedence_graph_is_a_dag_with_an_origin_on_every_edge(examples, name: str) -> None:
+    g = precedence_graph(examples[name])
+    assert nx.is_directed_acyclic_graph(g)
+    assert set(g.nodes) == set(examples[name].part_names)
+    for u, v, data in g.edges(data=True):
+        assert data["origins"], (u, v)
+        for origin in data["origins"]:
+            assert origin["kind"] in {"base", "rule"} and origin["reason"]
+
+
+def test_rule_edges_carry_their_line_and_reason(examples) -> None:
+    g = precedence_graph(examples["gear_unit"])
+    origins = g.edges["bearing_block", "cover"]["origins"]
+    rule = next(o for o in origins if o["kind"] == "rule")
+    text = example_path("gear_unit").read_text().splitlines()
+    assert "before: bearing_block, after: cover" in text[rule["line"] - 1]
+    assert "screws" in rule["reason"]
+
+
+@pytest.mark.parametrize("name", EXAMPLE_NAMES)
+def test_liaison_graph_has_one_edge_per_mate(examples, name: str) -> None:
+    product = examples[name]
+    g = liaison_graph(product)
+    assert g.number_of_edges() == len(product.mates)
+    for mate in product.mates:
+        data = g.edges[mate.pin_part, mate.hole_part, mate.name]
+        assert data["fit"] == mate.fit
+        assert data["clearance_min_m"] <= data["clearance_max_m"]
+    assert nx.is_connected(g)  # every example is one connected product
+
+
+def test_units_are_converted_once_to_si(examples) -> None:
+    station = examples["pinhole_station"]
+    part2 = station.part("part2")
+    assert part2.T_product_part[2, 3] == pytest.approx(0.025)
+    pin = part2.feature("p1")
+    assert pin.diameter_m == pytest.approx(0.008) and pin.length_m == pytest.approx(0.008)
+    np.testing.assert_allclose(pin.axis, [0, 0, -1])
+    assert station.process.max_speed_m_s == pytest.approx(0.25)
+    assert station.process.max_acceleration_m_s2 == pytest.approx(2.0)
+    assert station.resources.gripper.mass_kg == pytest.approx(0.6)
+    # 8 mm H7/g6: ISO 286 gives +5..+29 um diametral clearance
+    mate = next(m for m in station.mates if m.name == "m21a")
+    assert (mate.clearance_min_m, mate.clearance_max_m) == pytest.approx((5e-6, 29e-6))
+
+
+def test_rotated_part_pose_in_radians(examples) -> None:
+    shaft = examples["gear_unit"].part("shaft")
+    # pitch -90 deg turns the shaft's local z onto world -x
+    np.testing.assert_allclose(shaft.T_product_part[:3, :3] @ [0, 0, 1], [-1, 0, 0], atol=1e-12)
+
+
+def test_same_input_same_graph_json(capsys) -> None:
+    outs = []
+    for _ in range(2):
+        assert main(["graph", str(example_path("gear_unit"))]) == 0
+        outs.append(capsys.readouterr().out)
+    assert outs[0] == outs[1]
+    data = json.loads(outs[0])
+    assert {"liaison", "precedence"} <= set(data)
+
+
+def test_dot_output_names_every_part(capsys) -> None:
+    assert main(["graph", str(example_path("pinhole_station")), "--format", "dot"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("digraph") == 1 and out.count("graph ") >= 2
+    for name in ("part1", "part2", "part3", "part4"):
+        assert f'"{name}"' in out
+
+
+def test_explicit_clearance_and_length_units(tmp_path) -> None:
+    text = example_path("peg_in_hole").read_text().replace("fit: H7/g6", "clearance: {min: 0.01, max: 0.03}")
+    text = text.replace("units: {length: mm, mass: g}", "units: {length: m, mass: kg}")
+    text = text.replace("size: [60, 60, 30]", "size: [0.06, 0.06, 0.03]")
+    doc = parse_located(text, "p.yaml")
+    assert doc.data["mates"][0]["clearance"] == {"min": 0.01, "max": 0.03}
+    path = tmp_path / "p.yaml"
+    path.write_text(text)
+    # in metres, the rest of the file (written in mm) is now absurd but valid; the mate is not:
+    # a 10 m pin in a 10 m hole with 1-3 cm clearance
+    product = load_product(path)
+    mate = product.mates[0]
+    assert (mate.clearance_min_m, mate.clearance_max_m) == (0.01, 0.03)
