@@ -1,0 +1,187 @@
+"""Typed planning failures, each carrying its evidence.
+
+Every error derives from :class:`PlanningError` and offers ``evidence()``, a JSON-safe dict
+(SI units, poses as nested lists) that the CLI prints and a report can show. The message
+(``str(error)``) names the step, the part and the obstacle in words.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+
+def _pose_list(T: np.ndarray | None) -> list[list[float]] | None:
+    return None if T is None else np.asarray(T, dtype=float).round(9).tolist()
+
+
+@dataclass(frozen=True, eq=False)
+class CollidingPair:
+    """Two bodies found in contact: names, penetration depth (m) and a contact point (world, m).
+
+    ``depth_m`` and ``point_m`` are None when the checker gave only a yes/no answer.
+    """
+
+    a: str
+    b: str
+    depth_m: float | None = None
+    point_m: np.ndarray | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"a": self.a, "b": self.b,
+                "depth_m": None if self.depth_m is None else float(self.depth_m),
+                "point_m": None if self.point_m is None
+                else np.asarray(self.point_m, dtype=float).round(9).tolist()}
+
+    def __str__(self) -> str:
+        depth = "" if self.depth_m is None else f" (depth {self.depth_m * 1e3:.3f} mm"
+        if self.point_m is not None:
+            p = np.asarray(self.point_m) * 1e3
+            depth += f"{', ' if depth else ' ('}at [{p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}] mm"
+        return f"{self.a} / {self.b}{depth}{')' if depth else ''}"
+
+
+class PlanningError(Exception):
+    """Base of all planning failures. ``step`` is the step index (0-based) or None."""
+
+    kind = "planning"
+
+    def __init__(self, message: str, step: int | None = None, part: str | None = None) -> None:
+        super().__init__(message)
+        self.step = step
+        self.part = part
+
+    def evidence(self) -> dict[str, Any]:
+        """JSON-safe evidence of the failure."""
+        return {"kind": self.kind, "message": str(self), "step": self.step, "part": self.part}
+
+
+class StartInCollisionError(PlanningError):
+    """A body is in collision where the plan must start from (a start pose or a layout)."""
+
+    kind = "start_in_collision"
+
+    def __init__(self, pairs: Sequence[CollidingPair], step: int | None = None,
+                 part: str | None = None, T_world_part: np.ndarray | None = None,
+                 where: str = "start pose") -> None:
+        self.pairs = tuple(pairs)
+        self.T_world_part = None if T_world_part is None else np.asarray(T_world_part, float)
+        self.where = where
+        listed = "; ".join(str(p) for p in self.pairs[:4])
+        more = f" and {len(self.pairs) - 4} more" if len(self.pairs) > 4 else ""
+        who = f'step {step} (part "{part}")' if step is not None else "the initial layout"
+        super().__init__(f"{who}: in collision at the {where}: {listed}{more}", step, part)
+
+    def evidence(self) -> dict[str, Any]:
+        return {**super().evidence(), "where": self.where,
+                "pairs": [p.as_dict() for p in self.pairs],
+                "T_world_part": _pose_list(self.T_world_part)}
+
+
+class NoPathError(PlanningError):
+    """No collision-free path between two poses was found within the budget.
+
+    ``partial_path`` holds the gripper poses (N, 4, 4) reached so far (at least the start);
+    ``pairs`` the collisions seen at the closest failing pose, when known.
+    """
+
+    kind = "no_path"
+
+    def __init__(self, step: int, part: str, partial_path: np.ndarray, reason: str,
+                 pairs: Sequence[CollidingPair] = ()) -> None:
+        self.partial_path = np.asarray(partial_path, dtype=float).reshape(-1, 4, 4)
+        self.reason = reason
+        self.pairs = tuple(pairs)
+        super().__init__(f'step {step} (part "{part}"): no collision-free path: {reason}',
+                         step, part)
+
+    def evidence(self) -> dict[str, Any]:
+        return {**super().evidence(), "reason": self.reason,
+                "partial_path_T_world_gripper": _pose_list(self.partial_path),
+                "pairs": [p.as_dict() for p in self.pairs]}
+
+
+class InsertionBlockedError(PlanningError):
+    """The straight approach/insertion along the mate axis hits an obstacle.
+
+    ``obstacle`` names the body in the way, ``T_world_part`` is the pose of the moving part at
+    the first colliding sample, ``depth_along_axis_m`` how far along the straight segment
+    (from the pre-insertion pose) that sample lies.
+    """
+
+    kind = "insertion_blocked"
+
+    def __init__(self, step: int, part: str, obstacle: str, T_world_part: np.ndarray,
+                 pairs: Sequence[CollidingPair] = (), depth_along_axis_m: float = 0.0,
+                 segment: str = "insertion") -> None:
+        self.obstacle = obstacle
+        self.T_world_part = np.asarray(T_world_part, dtype=float)
+        self.pairs = tuple(pairs)
+        self.depth_along_axis_m = float(depth_along_axis_m)
+        self.segment = segment
+        p = self.T_world_part[:3, 3] * 1e3
+        super().__init__(
+            f'step {step} (part "{part}"): {segment} blocked by "{obstacle}" '
+            f"{self.depth_along_axis_m * 1e3:.2f} mm along the mate axis; part at "
+            f"[{p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}] mm"
+            + (f"; contacts: {'; '.join(str(c) for c in self.pairs[:3])}" if self.pairs else ""),
+            step, part)
+
+    def evidence(self) -> dict[str, Any]:
+        return {**super().evidence(), "obstacle": self.obstacle, "segment": self.segment,
+                "T_world_part": _pose_list(self.T_world_part),
+                "depth_along_axis_m": self.depth_along_axis_m,
+                "pairs": [c.as_dict() for c in self.pairs]}
+
+
+class NoGraspError(PlanningError):
+    """No grasp of ``part`` survived; ``reasons`` says why each candidate family failed."""
+
+    kind = "no_grasp"
+
+    def __init__(self, part: str, reasons: Sequence[str], step: int | None = None) -> None:
+        self.reasons = tuple(reasons)
+        shown = "; ".join(self.reasons[:5])
+        more = f" (and {len(self.reasons) - 5} more)" if len(self.reasons) > 5 else ""
+        where = f'step {step} (part "{part}")' if step is not None else f'part "{part}"'
+        super().__init__(f"{where}: no feasible grasp: {shown}{more}", step, part)
+
+    def evidence(self) -> dict[str, Any]:
+        return {**super().evidence(), "reasons": list(self.reasons)}
+
+
+class GripInfeasibleError(PlanningError):
+    """The clamp force needed to hold the part exceeds what may be applied.
+
+    Numbers: ``required_N`` = safety_factor * m (g + a) / (2 mu) per finger, the ``limit_N``
+    it exceeds and which limit that is (``limit_source``: "gripper max_force" or
+    "part max_clamp_force").
+    """
+
+    kind = "grip_infeasible"
+
+    def __init__(self, part: str, required_N: float, limit_N: float, limit_source: str,
+                 mass_kg: float, mu: float, acceleration_m_s2: float, safety_factor: float,
+                 step: int | None = None) -> None:
+        self.required_N = float(required_N)
+        self.limit_N = float(limit_N)
+        self.limit_source = limit_source
+        self.mass_kg = float(mass_kg)
+        self.mu = float(mu)
+        self.acceleration_m_s2 = float(acceleration_m_s2)
+        self.safety_factor = float(safety_factor)
+        where = f'step {step} (part "{part}")' if step is not None else f'part "{part}"'
+        super().__init__(
+            f"{where}: grip infeasible: needs {self.required_N:.2f} N per finger "
+            f"(= {self.safety_factor:g} x {self.mass_kg:.4f} kg x (9.81 + "
+            f"{self.acceleration_m_s2:g}) m/s^2 / (2 x mu {self.mu:.3f})) but the "
+            f"{limit_source} is {self.limit_N:.2f} N", step, part)
+
+    def evidence(self) -> dict[str, Any]:
+        return {**super().evidence(), "required_N": self.required_N, "limit_N": self.limit_N,
+                "limit_source": self.limit_source, "mass_kg": self.mass_kg, "mu": self.mu,
+                "acceleration_m_s2": self.acceleration_m_s2,
+                "safety_factor": self.safety_factor}

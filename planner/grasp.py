@@ -1,0 +1,389 @@
+"""Antipodal grasps for a parallel two-finger gripper.
+
+Candidates
+----------
+A grasp is a gripper TCP frame in the part frame (``T_part_gripper``; z approach, y closing
+axis, origin between the pad faces; see :mod:`asmplan.planner.trajectory`) and a width. The
+search works on the part's surface, sampled with normals (any mesh: boxes, cylinders,
+composites with holes, imported meshes):
+
+1. closing axes: the knowledge hint's ``closing_axis``; the normals of large opposite planar
+   faces; the principal axes of the surface; for cylinders, radial directions every 45 deg;
+2. approach axes: perpendicular to the closing axis every 45 deg, starting from "down" at the
+   start pose (and the hint's ``approach_axis``);
+3. offsets of the pad centre along the approach axis and along the finger width, centred on
+   the centre of mass.
+
+For each candidate the pads are the finger boxes' inner faces, ``width x length`` rectangles
+(gripper x, z) centred on the TCP. The surface points inside a pad's footprint prism decide
+the contact: the outermost points along the closing axis touch the pads; those within
+``CONTACT_BAND_M`` of the extreme count as contact area, and their normals must lie inside the
+friction cone (``mu = finger friction * part friction``) of the closing direction. Rejected:
+no contact on one side, a normal outside the cone, a width beyond the stroke (minus the
+opening clearance on both sides), any surface point inside the palm box.
+
+Ranking
+-------
+``cost = 10 [not the hint] + 2 [closing axis not the hint's] + com_offset / size
++ 0.5 (1 - area / best area) + 0.25 (1 - down_start . approach) + 0.25 (1 - down_final .
+approach)``: knowledge hints first, then grasps centred on the centre of mass with a large
+contact area, coming from above at both poses. ``size`` is the part's bounding-box diagonal.
+
+Finger collisions with the partial assembly and the table at the start and final poses are
+judged by :func:`reject_colliding` with a checker supplied by :mod:`asmplan.planner.motion`.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import trimesh
+
+from ..knowledge.model import GraspHint, Gripper
+from .errors import CollidingPair, NoGraspError
+from .plan import Grasp
+
+CONTACT_BAND_M = 3e-4
+"""Surface points within this distance of a pad's plane count as touching it, m."""
+
+_MIN_CONTACT_POINTS = 3
+_ANGLE_STEP_RAD = math.pi / 4
+
+
+@dataclass(frozen=True, eq=False)
+class GraspSurface:
+    """Surface samples of a part in its own frame.
+
+    Parameters
+    ----------
+    points_m : (n, 3) float array
+        Surface points, m, part frame.
+    normals : (n, 3) float array
+        Outward unit normals at the points.
+    area_per_point_m2 : float
+        Surface area represented by one sample, m^2.
+    com_m : (3,) float array
+        Centre of mass, part frame, m.
+    kind : str
+        Geometry kind ("box", "cylinder", "composite", "mesh", ...); cylinders add radial
+        closing axes about their local z axis.
+    """
+
+    points_m: np.ndarray
+    normals: np.ndarray
+    area_per_point_m2: float
+    com_m: np.ndarray
+    kind: str = "mesh"
+
+    @classmethod
+    def from_mesh(cls, mesh: trimesh.Trimesh, com_m: np.ndarray, n_samples: int, seed: int,
+                  kind: str = "mesh") -> GraspSurface:
+        """Sample ``n_samples`` surface points (area-uniform, seeded) plus the vertices."""
+        pts, face = trimesh.sample.sample_surface(mesh, int(n_samples), seed=int(seed))
+        normals = mesh.face_normals[face]
+        # vertices make the extreme points (box corners and edges) exact
+        vn = mesh.vertex_normals
+        pts = np.vstack([pts, mesh.vertices])
+        normals = np.vstack([normals, vn])
+        return cls(points_m=np.asarray(pts, float), normals=np.asarray(normals, float),
+                   area_per_point_m2=float(mesh.area) / float(n_samples),
+                   com_m=np.asarray(com_m, float), kind=kind)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return np.asarray(v, float) / float(np.linalg.norm(v))
+
+
+def _perpendicular(c: np.ndarray, prefer: np.ndarray | None) -> np.ndarray:
+    if prefer is not None:
+        p = prefer - np.dot(prefer, c) * c
+        if np.linalg.norm(p) > 1e-6:
+            return _unit(p)
+    for axis in np.eye(3):
+        p = axis - np.dot(axis, c) * c
+        if np.linalg.norm(p) > 0.5:
+            return _unit(p)
+    raise AssertionError("unreachable: some axis is not parallel to c")
+
+
+def closing_axes(surface: GraspSurface, hint: GraspHint | None, min_area_fraction: float = 0.03
+                 ) -> list[np.ndarray]:
+    """Candidate closing axes (unit, part frame), deduplicated up to sign, hint first."""
+    cands: list[np.ndarray] = []
+    if hint is not None and hint.closing_axis is not None:
+        cands.append(_unit(hint.closing_axis))
+    # large planar faces with an opposite face: cluster sample normals on a 0.02 grid
+    n = surface.normals[: surface.points_m.shape[0]]
+    keys, counts = np.unique(np.round(n / 0.02).astype(int), axis=0, return_counts=True)
+    order = np.argsort(-counts, kind="stable")
+    total = float(len(n))
+    key_set = {tuple(k): c for k, c in zip(keys.tolist(), counts.tolist(), strict=True)}
+    for i in order:
+        if counts[i] / total < min_area_fraction:
+            break
+        opposite = tuple((-keys[i]).tolist())
+        if opposite in key_set and key_set[opposite] / total >= min_area_fraction:
+            cands.append(_unit(keys[i].astype(float)))
+    if surface.kind != "cylinder":  # principal axes of the surface points
+        pts = surface.points_m - surface.points_m.mean(axis=0)
+        _, vecs = np.linalg.eigh(pts.T @ pts)
+        cands.extend(_unit(vecs[:, k]) for k in (2, 1, 0))
+    else:  # radial directions and the axis
+        for k in range(4):
+            a = k * _ANGLE_STEP_RAD
+            cands.append(np.array([math.cos(a), math.sin(a), 0.0]))
+        cands.append(np.array([0.0, 0.0, 1.0]))
+    out: list[np.ndarray] = []
+    for c in cands:
+        c = np.where(np.abs(c) < 1e-12, 0.0, c)
+        if all(abs(float(np.dot(c, o))) < 0.999 for o in out):
+            out.append(c)
+    return out
+
+
+def iter_grasps(
+    part: str,
+    surface: GraspSurface,
+    gripper: Gripper,
+    hint: GraspHint | None = None,
+    *,
+    part_friction: float = 0.5,
+    finger_clearance_m: float = 3e-3,
+    down_start_part: np.ndarray | None = None,
+    down_final_part: np.ndarray | None = None,
+    min_overlap_m: float = 3e-3,
+) -> Iterator[Grasp]:
+    """Antipodal grasps of one part in increasing cost (see the module docstring), lazily.
+
+    Every cost term except the contact-area term is known before a candidate is evaluated
+    and the area term is >= 0, so candidates are evaluated best-first by that lower bound and
+    a grasp is yielded once no unevaluated candidate can beat it: the order is exactly the
+    full ranking, but only the candidates needed are evaluated.
+
+    Parameters
+    ----------
+    part : str
+    surface : GraspSurface
+        The part's surface samples, part frame.
+    gripper : Gripper
+        Stroke, finger size (width x, thickness y, length z), palm size.
+    hint : GraspHint, optional
+        The part's handling knowledge.
+    part_friction : float
+        The part's friction coefficient (multiplied with the finger's).
+    finger_clearance_m : float
+        Opening added per finger beyond the part's width to approach and release, m.
+    down_start_part, down_final_part : (3,) float arrays, optional
+        World "down" (-z) expressed in the part frame at the start and final poses.
+    min_overlap_m : float
+        Smallest overlap of a pad with the part along the approach axis, m.
+
+    Yields
+    ------
+    Grasp
+        In increasing cost; ties broken by generation order (deterministic).
+    """
+    W, _, L = (float(v) for v in gripper.finger_size_m)
+    palm = np.asarray(gripper.palm_size_m, float)
+    mu = float(gripper.finger_friction) * float(part_friction)
+    cos_cone = math.cos(math.atan(mu)) if mu > 0 else 1.0
+    P = surface.points_m
+    N = surface.normals
+    com = surface.com_m
+    size = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
+    max_width = float(gripper.stroke_m) - 2.0 * finger_clearance_m
+    pad_area = W * L
+    down_s = None if down_start_part is None else _unit(down_start_part)
+    down_f = None if down_final_part is None else _unit(down_final_part)
+    hint_c = None if hint is None or hint.closing_axis is None else _unit(hint.closing_axis)
+    hint_a = None if hint is None or hint.approach_axis is None else _unit(hint.approach_axis)
+    hint_o = None if hint is None or hint.offset_m is None else np.asarray(hint.offset_m, float)
+
+    frames: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]] = []
+    todo: list[tuple[float, int, int, float, float, bool]] = []  # (lb, serial, frame, u, v, hint)
+    rel = P - com
+    for c in closing_axes(surface, hint):
+        is_hint_c = hint_c is not None and abs(float(np.dot(c, hint_c))) > 0.999
+        a0 = _perpendicular(c, down_s)
+        b0 = np.cross(c, a0)
+        approaches = [math.cos(k * _ANGLE_STEP_RAD) * a0 + math.sin(k * _ANGLE_STEP_RAD) * b0
+                      for k in range(8)]
+        if is_hint_c and hint_a is not None and abs(float(np.dot(hint_a, c))) < 1e-6:
+            approaches.insert(0, hint_a)
+        seen: list[np.ndarray] = []
+        for a in approaches:
+            a = _unit(a)
+            if any(float(np.dot(a, s)) > 0.999 for s in seen):
+                continue
+            seen.append(a)
+            x = np.cross(c, a)
+            XYZ = np.stack([rel @ x, rel @ c, rel @ a])
+            fi = len(frames)
+            frames.append((x, c, a, XYZ, is_hint_c))
+            is_hint = is_hint_c and hint_a is not None and float(np.dot(a, hint_a)) > 0.999
+            base = 0.0
+            if hint_c is not None:
+                base += (0.0 if is_hint else 10.0) + (0.0 if is_hint_c else 2.0)
+            if down_s is not None:
+                base += 0.25 * (1.0 - float(np.dot(down_s, a)))
+            if down_f is not None:
+                base += 0.25 * (1.0 - float(np.dot(down_f, a)))
+            centres: list[tuple[float, float]] = []
+            if is_hint and hint_o is not None:
+                centres.append((float((hint_o - com) @ x), float((hint_o - com) @ a)))
+            xlo, xhi = float(XYZ[0].min()), float(XYZ[0].max())
+            zlo, zhi = float(XYZ[2].min()), float(XYZ[2].max())
+            v_lo = zlo - L / 2 + min_overlap_m
+            v_hi = zhi + L / 2 - min_overlap_m
+            vs = sorted({round(float(np.clip(k * L / 6, v_lo, v_hi)), 9) for k in range(-6, 7)},
+                        key=lambda v: (abs(v), v))
+            us = [0.0]
+            if xhi - xlo > W:  # the part is wider than a finger: slide along it too
+                us = sorted({round(float(np.clip(k * W / 2, xlo + W / 2, xhi - W / 2)), 9)
+                             for k in range(-2, 3)}, key=lambda u: (abs(u), u))
+            centres.extend((u, v) for v in vs for u in us)
+            for u, v in centres:
+                todo.append((base + math.hypot(u, v) / size, len(todo), fi, u, v, is_hint))
+    todo.sort(key=lambda t: (t[0], t[1]))
+    heap: list[tuple[float, int, Grasp]] = []
+    strips: dict[tuple[int, float], tuple[_Strip, _Strip]] = {}
+    for lb, serial, fi, u, v, is_hint in todo:
+        while heap and heap[0][0] <= lb:
+            yield heapq.heappop(heap)[2]
+        x, c, a, XYZ, _ = frames[fi]
+        if (fi, u) not in strips:
+            strips[fi, u] = (_Strip(XYZ, N, u, W / 2), _Strip(XYZ, N, u, palm[0] / 2))
+        pad, palm_strip = strips[fi, u]
+        g = _evaluate(part, pad, palm_strip, x, c, a, com, u, v, L, palm, cos_cone, max_width,
+                      float(gripper.stroke_m), finger_clearance_m, surface.area_per_point_m2,
+                      hint)
+        if g is None:
+            continue
+        cost = lb + 0.5 * (1.0 - min(1.0, g.contact_area_m2 / pad_area))
+        heapq.heappush(heap, (cost, serial, Grasp(part, g.T_part_gripper, g.width_m,
+                                                  g.open_width_m, g.contact_area_m2,
+                                                  g.com_offset_m,
+                                                  "hint" if is_hint else "antipodal", cost)))
+    while heap:
+        yield heapq.heappop(heap)[2]
+
+
+def grasp_candidates(part: str, surface: GraspSurface, gripper: Gripper,
+                     hint: GraspHint | None = None, limit: int | None = None,
+                     **kwargs: Any) -> list[Grasp]:
+    """The first ``limit`` (default all) grasps of :func:`iter_grasps`, ranked."""
+    return list(itertools.islice(iter_grasps(part, surface, gripper, hint, **kwargs), limit))
+
+
+class _Strip:
+    """Surface points of one candidate frame within a band of gripper x, sorted by z."""
+
+    __slots__ = ("N", "Y", "Z")
+
+    def __init__(self, XYZ: np.ndarray, N: np.ndarray, u: float, half_width: float) -> None:
+        keep = np.flatnonzero(np.abs(XYZ[0] - u) <= half_width)
+        order = keep[np.argsort(XYZ[2, keep], kind="stable")]
+        self.Z = XYZ[2, order]
+        self.Y = XYZ[1, order]
+        self.N = N[order]
+
+    def window(self, z_lo: float, z_hi: float) -> slice:
+        return slice(int(np.searchsorted(self.Z, z_lo, side="left")),
+                     int(np.searchsorted(self.Z, z_hi, side="right")))
+
+
+def _evaluate(part: str, pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
+              a: np.ndarray, com: np.ndarray, u: float, v: float, L: float,
+              palm: np.ndarray, cos_cone: float, max_width: float, stroke: float,
+              clearance: float, area_per_point: float, hint: GraspHint | None) -> Grasp | None:
+    w = pad.window(v - L / 2, v + L / 2)
+    yin = pad.Y[w]
+    if yin.size == 0:
+        return None
+    y_max, y_min = float(yin.max()), float(yin.min())
+    width = y_max - y_min
+    if width <= 1e-4 or width > max_width:
+        return None
+    top = yin >= y_max - CONTACT_BAND_M
+    bot = yin <= y_min + CONTACT_BAND_M
+    if top.sum() < _MIN_CONTACT_POINTS or bot.sum() < _MIN_CONTACT_POINTS:
+        return None
+    # the contact normals must lie inside the friction cone about the closing direction
+    n_in = pad.N[w]
+    top_ok = (n_in[top] @ c) >= cos_cone
+    bot_ok = (n_in[bot] @ -c) >= cos_cone
+    if top_ok.mean() < 0.5 or bot_ok.mean() < 0.5:
+        return None
+    area = min(float(top_ok.sum()), float(bot_ok.sum())) * area_per_point
+    y_mid = 0.5 * (y_max + y_min)
+    # palm box behind the finger roots: z in [v - L/2 - palm_z, v - L/2), centred on the TCP
+    z_root = v - L / 2
+    pw = palm_strip.window(z_root - palm[2], z_root)
+    yp = palm_strip.Y[pw]
+    if np.any((np.abs(yp - y_mid) <= palm[1] / 2) & (palm_strip.Z[pw] < z_root)):
+        return None
+    T = np.eye(4)
+    T[:3, 0], T[:3, 1], T[:3, 2] = x, c, a
+    T[:3, 3] = com + u * x + y_mid * c + v * a
+    open_width = min(stroke, width + 2.0 * clearance)
+    if hint is not None and hint.width_m is not None and width <= hint.width_m <= stroke:
+        open_width = float(hint.width_m)
+    return Grasp(part, T, width, open_width, area, math.hypot(u, v), "antipodal", 0.0)
+
+
+def reject_colliding(
+    grasps: Sequence[Grasp],
+    collisions: Callable[[Grasp], tuple[str, Sequence[CollidingPair]]],
+    limit: int,
+) -> tuple[list[Grasp], list[str]]:
+    """Keep the grasps whose fingers are free at the start and final poses.
+
+    Parameters
+    ----------
+    grasps : sequence of Grasp
+        Ranked candidates.
+    collisions : callable
+        ``collisions(grasp) -> (where, pairs)``: empty ``pairs`` when the gripper is free at
+        every checked pose, otherwise the first failing pose's name and its colliding pairs.
+    limit : int
+        Stop after this many accepted grasps.
+
+    Returns
+    -------
+    (accepted, reasons)
+        ``reasons`` summarises the rejections, grouped by pose and obstacle.
+    """
+    accepted: list[Grasp] = []
+    tally: dict[str, int] = {}
+    for g in grasps:
+        where, pairs = collisions(g)
+        if not pairs:
+            accepted.append(g)
+            if len(accepted) >= limit:
+                break
+            continue
+        obstacles = sorted({p.b for p in pairs} | {p.a for p in pairs} - {"gripper"})
+        key = f"gripper hits {', '.join(obstacles)} at the {where}"
+        tally[key] = tally.get(key, 0) + 1
+    reasons = [f"{n} candidate{'s' if n != 1 else ''}: {k}"
+               for k, n in sorted(tally.items(), key=lambda kv: (-kv[1], kv[0]))]
+    return accepted, reasons
+
+
+def require_grasps(part: str, candidates: Sequence[Grasp],
+                   collisions: Callable[[Grasp], tuple[str, Sequence[CollidingPair]]],
+                   limit: int, step: int | None = None) -> list[Grasp]:
+    """:func:`reject_colliding`, raising :class:`NoGraspError` when nothing survives."""
+    if not candidates:
+        raise NoGraspError(part, ["no antipodal finger placement within the gripper's stroke "
+                                  "and friction cone"], step)
+    accepted, reasons = reject_colliding(candidates, collisions, limit)
+    if not accepted:
+        raise NoGraspError(part, reasons or ["every candidate collided"], step)
+    return accepted

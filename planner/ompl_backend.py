@@ -1,0 +1,249 @@
+"""Rigid-body motion planning in SE(3) with OMPL 2.x (the only module that imports ``ompl``).
+
+The caller supplies a validity callable on a pose (``(4, 4)`` float array, ``T_world_body``)
+and gets back the waypoints of a simplified path, or a result saying why there is none. OMPL
+itself checks motions only at its own resolution (``resolution_m``); the caller must re-check
+the returned path densely (see :mod:`asmplan.planner.motion`).
+
+Notes on the OMPL 2.x nanobind API (see the project's field notes):
+
+* states come from ``space.allocState()``; the validity checker is a plain callable;
+* ``SimpleSetup.setup()`` segfaults without start and goal, so it is never called directly
+  (``solve`` calls it after start and goal are set);
+* ``solve`` is given a ``timedPlannerTerminationCondition`` (a float budget adds ~4 ms);
+* seeding: ``ompl.util.RNG.setSeed`` resets the seed generator that every RNG created
+  afterwards draws from; a fresh ``SimpleSetup`` (planner, samplers, simplifier) is built
+  after it on every call, so the same seed gives the same path. OMPL logs an "already
+  started" error when the seed is set a second time in one process; logging is silenced
+  during our calls and restored afterwards.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+PLANNERS: dict[str, Callable[[ob.SpaceInformation], ob.Planner]] = {
+    "RRTConnect": og.RRTConnect,
+    "RRT": og.RRT,
+    "KPIECE1": og.KPIECE1,
+    "BKPIECE1": og.BKPIECE1,
+    "LBKPIECE1": og.LBKPIECE1,
+    "PRM": og.PRM,
+    "PRMstar": og.PRMstar,
+    "RRTstar": og.RRTstar,
+    "InformedRRTstar": og.InformedRRTstar,
+    "SORRTstar": og.SORRTstar,
+    "BITstar": og.BITstar,
+    "FMT": og.FMT,
+    "BFMT": og.BFMT,
+    "AORRTC": og.AORRTC,
+}
+"""Planner names accepted by :func:`plan_se3` (RRTConnect is the default)."""
+
+
+@dataclass(frozen=True, eq=False)
+class SE3Bounds:
+    """Axis-aligned bounds of the body origin's position, world frame, m."""
+
+    low_m: np.ndarray
+    high_m: np.ndarray
+
+    def __post_init__(self) -> None:
+        lo = np.array(self.low_m, dtype=float)
+        hi = np.array(self.high_m, dtype=float)
+        if lo.shape != (3,) or hi.shape != (3,):
+            raise ValueError(f"SE3Bounds: expected two (3,) arrays, found {lo.shape}, {hi.shape}")
+        if not np.all(hi > lo):
+            raise ValueError(f"SE3Bounds: expected high > low, found low {lo.tolist()}, "
+                             f"high {hi.tolist()}")
+        lo.setflags(write=False)
+        hi.setflags(write=False)
+        object.__setattr__(self, "low_m", lo)
+        object.__setattr__(self, "high_m", hi)
+
+    def contains(self, p: np.ndarray) -> bool:
+        """Whether point ``p`` (3,) lies inside the bounds."""
+        return bool(np.all(p >= self.low_m) and np.all(p <= self.high_m))
+
+    @property
+    def extent_m(self) -> float:
+        """Length of the diagonal, m."""
+        return float(np.linalg.norm(self.high_m - self.low_m))
+
+
+@dataclass(frozen=True, eq=False)
+class OmplResult:
+    """Outcome of one OMPL query.
+
+    Attributes
+    ----------
+    solved : bool
+        An exact solution was found.
+    status : str
+        OMPL's planner status text (e.g. "Exact solution", "Timeout").
+    poses : (N, 4, 4) float array
+        Waypoints of the simplified path (start first, goal last) when solved; otherwise the
+        best partial path OMPL had (possibly just the start), for evidence.
+    planning_time_s : float
+        Wall time of ``solve`` plus simplification, s.
+    validity_checks : int
+        Number of validity-callable calls.
+    planner : str
+    """
+
+    solved: bool
+    status: str
+    poses: np.ndarray
+    planning_time_s: float
+    validity_checks: int
+    planner: str
+
+
+def _set_state(state: ob.SE3State, T: np.ndarray) -> None:
+    q = _quat_xyzw(T[:3, :3])
+    state.setXYZ(float(T[0, 3]), float(T[1, 3]), float(T[2, 3]))
+    rot = state.rotation()
+    rot.x, rot.y, rot.z, rot.w = (float(v) for v in q)
+
+
+def _quat_xyzw(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion (x, y, z, w) of a rotation matrix (Shepperd's method)."""
+    tr = R[0, 0] + R[1, 1] + R[2, 2]
+    if tr > 0:
+        s = math.sqrt(tr + 1.0) * 2.0
+        q = [(R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s, 0.25 * s]
+    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
+        s = math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) * 2.0
+        q = [0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s, (R[2, 1] - R[1, 2]) / s]
+    elif R[1, 1] > R[2, 2]:
+        s = math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2]) * 2.0
+        q = [(R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s, (R[0, 2] - R[2, 0]) / s]
+    else:
+        s = math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2.0
+        q = [(R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s, (R[1, 0] - R[0, 1]) / s]
+    out = np.array(q, dtype=float)
+    return out / np.linalg.norm(out)
+
+
+def pose_from_xyz_quat(x: float, y: float, z: float, qx: float, qy: float, qz: float,
+                       qw: float) -> np.ndarray:
+    """Homogeneous transform (4, 4) from a position (m) and a unit quaternion (x, y, z, w)."""
+    n = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    qx, qy, qz, qw = qx / n, qy / n, qz / n, qw / n
+    xx, yy, zz = qx * qx, qy * qy, qz * qz
+    xy, xz, yz, wx, wy, wz = qx * qy, qx * qz, qy * qz, qw * qx, qw * qy, qw * qz
+    return np.array([
+        [1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy), x],
+        [2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx), y],
+        [2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy), z],
+        [0.0, 0.0, 0.0, 1.0],
+    ])
+
+
+def _state_pose(state: ob.SE3State) -> np.ndarray:
+    r = state.rotation()
+    return pose_from_xyz_quat(state.getX(), state.getY(), state.getZ(), r.x, r.y, r.z, r.w)
+
+
+def plan_se3(
+    is_valid: Callable[[np.ndarray], bool],
+    T_start: np.ndarray,
+    T_goal: np.ndarray,
+    bounds: SE3Bounds,
+    *,
+    planner: str = "RRTConnect",
+    time_budget_s: float = 1.0,
+    seed: int = 0,
+    resolution_m: float = 2e-3,
+    simplify: bool = True,
+) -> OmplResult:
+    """Plan a rigid-body path in SE(3) from ``T_start`` to ``T_goal``.
+
+    Parameters
+    ----------
+    is_valid : callable
+        ``is_valid(T_world_body) -> bool`` for a (4, 4) pose; must be deterministic.
+    T_start, T_goal : (4, 4) float arrays
+        Start and goal poses of the body; both must lie inside ``bounds``.
+    bounds : SE3Bounds
+        Position bounds of the body origin, m.
+    planner : str
+        A key of :data:`PLANNERS`.
+    time_budget_s : float
+        Wall-time budget of the search, s (simplification is not counted against it).
+    seed : int
+        Seed of OMPL's random number generators; the same seed and inputs give the same path.
+    resolution_m : float
+        OMPL's motion-check resolution: the longest segment, in SE(3) distance (m plus rad),
+        checked only at its ends.
+    simplify : bool
+        Shortcut and smooth the path (deterministic ``simplifyMax``).
+
+    Returns
+    -------
+    OmplResult
+    """
+    if planner not in PLANNERS:
+        raise ValueError(f"planner: expected one of {sorted(PLANNERS)}, found {planner!r}")
+    if not (time_budget_s > 0 and math.isfinite(time_budget_s)):
+        raise ValueError(f"time_budget_s: expected > 0, found {time_budget_s}")
+    if not resolution_m > 0:
+        raise ValueError(f"resolution_m: expected > 0, found {resolution_m}")
+    for label, T in (("T_start", T_start), ("T_goal", T_goal)):
+        if not bounds.contains(np.asarray(T)[:3, 3]):
+            raise ValueError(f"{label}: position {np.asarray(T)[:3, 3].tolist()} outside the "
+                             f"planning bounds {bounds.low_m.tolist()}..{bounds.high_m.tolist()}")
+
+    level = ou.getLogLevel()
+    ou.setLogLevel(ou.LOG_NONE)
+    try:
+        ou.RNG.setSeed(int(seed) & 0x7FFFFFFF or 1)
+        space = ob.SE3StateSpace()
+        b = ob.RealVectorBounds(3)
+        for i in range(3):
+            b.setLow(i, float(bounds.low_m[i]))
+            b.setHigh(i, float(bounds.high_m[i]))
+        space.setBounds(b)
+        ss = og.SimpleSetup(space)
+        calls = [0]
+
+        def checker(state: ob.SE3State) -> bool:
+            calls[0] += 1
+            return bool(is_valid(_state_pose(state)))
+
+        ss.setStateValidityChecker(checker)
+        si = ss.getSpaceInformation()
+        si.setStateValidityCheckingResolution(min(1.0, resolution_m / space.getMaximumExtent()))
+        start = space.allocState()
+        goal = space.allocState()
+        _set_state(start, np.asarray(T_start, dtype=float))
+        _set_state(goal, np.asarray(T_goal, dtype=float))
+        ss.setStartAndGoalStates(start, goal)
+        ss.setPlanner(PLANNERS[planner](si))
+        t0 = time.perf_counter()
+        status = ss.solve(ob.timedPlannerTerminationCondition(float(time_budget_s)))
+        solved = bool(ss.haveExactSolutionPath())
+        if solved and simplify:
+            ss.simplifySolution()
+        poses: list[np.ndarray] = []
+        if ss.haveSolutionPath():
+            path = ss.getSolutionPath()
+            poses = [_state_pose(s) for s in path.getStates()]
+        elapsed = time.perf_counter() - t0
+    finally:
+        ou.setLogLevel(level)
+    if not poses:
+        poses = [np.asarray(T_start, dtype=float)]
+    if solved:  # pin the ends exactly (quaternion round trip changes the last bits)
+        poses[0] = np.asarray(T_start, dtype=float).copy()
+        poses[-1] = np.asarray(T_goal, dtype=float).copy()
+    return OmplResult(solved=solved, status=str(status), poses=np.array(poses),
+                      planning_time_s=elapsed, validity_checks=calls[0], planner=planner)

@@ -1,0 +1,376 @@
+"""The Plan: sequence, grasps, trajectories and commanded forces, as a JSON document.
+
+A :class:`Plan` is what the simulator executes and the report shows. It is written with
+:meth:`Plan.write` (deterministic JSON, sorted keys, written atomically: temp file in the same
+folder, fsync, ``os.replace``) and read back with :meth:`Plan.read`; the same product, settings
+and seed give byte-identical files. The format is documented in ``docs/plan-format.md``.
+
+Wall-clock planning times are kept out of the file (they would break byte identity); they
+are returned next to the plan by :func:`asmplan.planner.motion.plan_product`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from ..fileio import atomic_write_text, dumps_json
+from .ompl_backend import PLANNERS
+from .timing import ClampForce, TimingSettings
+from .trajectory import Trajectory
+
+PLAN_FORMAT = "asmplan-plan"
+PLAN_VERSION = 1
+
+StepKind = Literal["fixture", "insert", "place"]
+
+
+def _arr(value: Any, shape: tuple[int, ...], name: str) -> np.ndarray:
+    a = np.array(value, dtype=float)
+    if a.shape != shape:
+        raise ValueError(f"{name}: expected shape {shape}, found {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: expected finite numbers, found NaN or inf")
+    a.setflags(write=False)
+    return a
+
+
+def _pose(value: Any, name: str) -> np.ndarray:
+    T = _arr(value, (4, 4), name)
+    R = T[:3, :3]
+    if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or abs(np.linalg.det(R) - 1.0) > 1e-6:
+        raise ValueError(f"{name}: expected a rigid transform, found a non-rotation block")
+    return T
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    """Every setting of grasp, motion and timing planning (SI units).
+
+    Parameters
+    ----------
+    planner : str
+        OMPL planner name (see :data:`asmplan.planner.ompl_backend.PLANNERS`).
+    time_budget_s : float
+        Search budget of one OMPL query, s.
+    seed : int
+        Seed of every random choice (OMPL, surface sampling); same seed, same plan.
+    ompl_resolution_m : float
+        OMPL's motion-check resolution (SE(3) distance, m + rad); the result is re-checked.
+    recheck_step_m : float
+        Dense re-check step: no point of the moving bodies travels more than this between
+        two checked poses, m.
+    insertion_step_m : float
+        Upper bound of the step along the mate axis for the straight segments, m; the step
+        actually used is ``min(insertion_step_m, 4 * smallest radial clearance)`` with a floor
+        of ``min_insertion_step_m``.
+    min_insertion_step_m : float
+        Floor of the insertion check step, m.
+    contact_tolerance_m : float
+        Penetration accepted between a part and its mate partner where they touch when
+        seated (face on face), m. Deeper contact is a collision.
+    finger_clearance_m : float
+        Extra opening per finger beyond the part's width for approach and release, m.
+    grasp_standoff_m : float
+        Distance the open gripper travels along its approach axis onto the part, and back
+        off after release, m.
+    max_grasps : int
+        Grasp candidates tried per step before giving up.
+    surface_samples : int
+        Surface samples per part for antipodal grasp search.
+    replan_attempts : int
+        OMPL retries (halving the resolution, new seed offset) when a path fails the dense
+        re-check.
+    timing : TimingSettings
+    """
+
+    planner: str = "RRTConnect"
+    time_budget_s: float = 2.0
+    seed: int = 0
+    ompl_resolution_m: float = 4e-3
+    recheck_step_m: float = 1e-4
+    insertion_step_m: float = 1e-4
+    min_insertion_step_m: float = 2e-5
+    contact_tolerance_m: float = 2e-5
+    finger_clearance_m: float = 3e-3
+    grasp_standoff_m: float = 0.03
+    max_grasps: int = 12
+    surface_samples: int = 3000
+    replan_attempts: int = 3
+    timing: TimingSettings = field(default_factory=TimingSettings)
+
+    def __post_init__(self) -> None:
+        if self.planner not in PLANNERS:
+            raise ValueError(f"planner: expected one of {sorted(PLANNERS)}, found {self.planner!r}")
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name in ("planner", "timing", "seed"):
+                continue
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise ValueError(f"PlannerSettings.{f.name}: expected > 0, found {v!r}")
+        if self.min_insertion_step_m > self.insertion_step_m:
+            raise ValueError(f"min_insertion_step_m: expected <= insertion_step_m "
+                             f"({self.insertion_step_m}), found {self.min_insertion_step_m}")
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> PlannerSettings:
+        d = dict(data)
+        d["timing"] = TimingSettings(**d.get("timing", {}))
+        return cls(**d)
+
+
+@dataclass(frozen=True, eq=False)
+class Grasp:
+    """A two-finger grasp of a part.
+
+    Parameters
+    ----------
+    part : str
+    T_part_gripper : (4, 4) float array
+        The gripper TCP frame in the part frame (z approach, y closing axis; see
+        :mod:`asmplan.planner.trajectory`).
+    width_m : float
+        Distance between the pads when closed on the part, m.
+    open_width_m : float
+        Opening used to approach and to release, m (<= the gripper's stroke).
+    contact_area_m2 : float
+        Estimated contact area of the smaller pad, m^2.
+    com_offset_m : float
+        Distance from the part's centre of mass to the TCP, m.
+    source : {"hint", "antipodal"}
+        "hint" when built from the part's handling knowledge.
+    cost : float
+        Ranking cost (lower is better); see :mod:`asmplan.planner.grasp`.
+    """
+
+    part: str
+    T_part_gripper: np.ndarray
+    width_m: float
+    open_width_m: float
+    contact_area_m2: float
+    com_offset_m: float
+    source: Literal["hint", "antipodal"]
+    cost: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "T_part_gripper", _pose(self.T_part_gripper, "T_part_gripper"))
+        if not (self.width_m > 0 and self.open_width_m >= self.width_m):
+            raise ValueError(f"grasp of {self.part}: expected 0 < width_m <= open_width_m, found "
+                             f"{self.width_m}, {self.open_width_m}")
+        if self.source not in ("hint", "antipodal"):
+            raise ValueError(f"grasp source: expected hint or antipodal, found {self.source!r}")
+
+    @property
+    def closing_axis_part(self) -> np.ndarray:
+        """Closing axis (3,) in the part frame."""
+        return self.T_part_gripper[:3, 1].copy()
+
+    @property
+    def approach_axis_part(self) -> np.ndarray:
+        """Approach axis (3,) in the part frame."""
+        return self.T_part_gripper[:3, 2].copy()
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"part": self.part, "T_part_gripper": self.T_part_gripper.tolist(),
+                "width_m": float(self.width_m), "open_width_m": float(self.open_width_m),
+                "contact_area_m2": float(self.contact_area_m2),
+                "com_offset_m": float(self.com_offset_m), "source": self.source,
+                "cost": float(self.cost)}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Grasp:
+        return cls(part=d["part"], T_part_gripper=np.array(d["T_part_gripper"]),
+                   width_m=float(d["width_m"]), open_width_m=float(d["open_width_m"]),
+                   contact_area_m2=float(d["contact_area_m2"]),
+                   com_offset_m=float(d["com_offset_m"]), source=d["source"],
+                   cost=float(d["cost"]))
+
+
+@dataclass(frozen=True, eq=False)
+class Step:
+    """One step of the plan.
+
+    ``kind``: "fixture" (the part is in place from the start, held by a fixture; no
+    trajectory), "insert" (pick, carry and insert along the mate axis) or "place" (no mate
+    with the parts already placed: lowered onto its pose along ``insertion_direction``).
+    Poses are of the part, world frame; ``path_T_world_gripper`` is the planned (simplified,
+    re-checked) path of the gripper TCP from the lifted pose to the pre-insertion pose.
+    """
+
+    index: int
+    part: str
+    kind: StepKind
+    mates: tuple[str, ...]
+    T_world_start: np.ndarray
+    T_world_final: np.ndarray
+    start_note: str = ""
+    T_world_pre_insertion: np.ndarray | None = None
+    insertion_direction: np.ndarray | None = None
+    insertion_length_m: float = 0.0
+    grasp: Grasp | None = None
+    clamp: ClampForce | None = None
+    trajectory: Trajectory | None = None
+    path_T_world_gripper: np.ndarray | None = None
+    check_step_m: float = 0.0
+    insertion_check_step_m: float = 0.0
+    checked_poses: int = 0
+    notes: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("fixture", "insert", "place"):
+            raise ValueError(f"step {self.index}: kind expected fixture, insert or place, "
+                             f"found {self.kind!r}")
+        object.__setattr__(self, "T_world_start", _pose(self.T_world_start, "T_world_start"))
+        object.__setattr__(self, "T_world_final", _pose(self.T_world_final, "T_world_final"))
+        if self.T_world_pre_insertion is not None:
+            object.__setattr__(self, "T_world_pre_insertion",
+                               _pose(self.T_world_pre_insertion, "T_world_pre_insertion"))
+        if self.insertion_direction is not None:
+            object.__setattr__(self, "insertion_direction",
+                               _arr(self.insertion_direction, (3,), "insertion_direction"))
+        if self.path_T_world_gripper is not None:
+            p = np.array(self.path_T_world_gripper, dtype=float)
+            if p.ndim != 3 or p.shape[1:] != (4, 4):
+                raise ValueError(f"path_T_world_gripper: expected (N, 4, 4), found {p.shape}")
+            p.setflags(write=False)
+            object.__setattr__(self, "path_T_world_gripper", p)
+        if self.kind != "fixture" and (self.grasp is None or self.trajectory is None):
+            raise ValueError(f"step {self.index} ({self.part}): a {self.kind} step needs a "
+                             "grasp and a trajectory, found none")
+
+    @property
+    def commanded_force_N(self) -> float:
+        """Commanded per-finger clamp force, N (0 for fixture steps)."""
+        return 0.0 if self.clamp is None else self.clamp.commanded_N
+
+    def to_dict(self) -> dict[str, Any]:
+        def opt(a: np.ndarray | None) -> Any:
+            return None if a is None else a.tolist()
+
+        return {
+            "index": self.index, "part": self.part, "kind": self.kind, "mates": list(self.mates),
+            "T_world_start": self.T_world_start.tolist(), "start_note": self.start_note,
+            "T_world_final": self.T_world_final.tolist(),
+            "T_world_pre_insertion": opt(self.T_world_pre_insertion),
+            "insertion_direction": opt(self.insertion_direction),
+            "insertion_length_m": float(self.insertion_length_m),
+            "grasp": None if self.grasp is None else self.grasp.to_dict(),
+            "clamp": None if self.clamp is None else self.clamp.as_dict(),
+            "commanded_force_N": self.commanded_force_N,
+            "trajectory": None if self.trajectory is None else self.trajectory.to_dict(),
+            "path_T_world_gripper": opt(self.path_T_world_gripper),
+            "check_step_m": float(self.check_step_m),
+            "insertion_check_step_m": float(self.insertion_check_step_m),
+            "checked_poses": int(self.checked_poses),
+            "notes": list(self.notes),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Step:
+        def opt(a: Any) -> np.ndarray | None:
+            return None if a is None else np.array(a, dtype=float)
+
+        clamp = d.get("clamp")
+        return cls(
+            index=int(d["index"]), part=d["part"], kind=d["kind"], mates=tuple(d["mates"]),
+            T_world_start=np.array(d["T_world_start"]), T_world_final=np.array(d["T_world_final"]),
+            start_note=d.get("start_note", ""),
+            T_world_pre_insertion=opt(d.get("T_world_pre_insertion")),
+            insertion_direction=opt(d.get("insertion_direction")),
+            insertion_length_m=float(d.get("insertion_length_m", 0.0)),
+            grasp=None if d.get("grasp") is None else Grasp.from_dict(d["grasp"]),
+            clamp=None if clamp is None else ClampForce(**clamp),
+            trajectory=None if d.get("trajectory") is None
+            else Trajectory.from_dict(d["trajectory"]),
+            path_T_world_gripper=opt(d.get("path_T_world_gripper")),
+            check_step_m=float(d.get("check_step_m", 0.0)),
+            insertion_check_step_m=float(d.get("insertion_check_step_m", 0.0)),
+            checked_poses=int(d.get("checked_poses", 0)), notes=tuple(d.get("notes", ())),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class Plan:
+    """A complete assembly plan.
+
+    Parameters
+    ----------
+    product : str
+        Product name.
+    source : str
+        The product file as given.
+    source_sha256 : str
+        SHA-256 of the product file's bytes ("" when unknown).
+    sequence : tuple of str
+        Part order, the first being the base (fixtured or placed first).
+    sequence_note : str
+        Where the sequence came from (e.g. the sequence planner's rank and score).
+    steps : tuple of Step
+        One per part, in sequence order.
+    settings : PlannerSettings
+    """
+
+    product: str
+    source: str
+    source_sha256: str
+    sequence: tuple[str, ...]
+    steps: tuple[Step, ...]
+    settings: PlannerSettings
+    sequence_note: str = ""
+
+    def __post_init__(self) -> None:
+        parts = tuple(s.part for s in self.steps)
+        if parts != tuple(self.sequence):
+            raise ValueError(f"plan: expected steps in sequence order {list(self.sequence)}, "
+                             f"found {list(parts)}")
+        for k, s in enumerate(self.steps):
+            if s.index != k:
+                raise ValueError(f"plan: expected step index {k}, found {s.index}")
+
+    def step(self, part: str) -> Step:
+        for s in self.steps:
+            if s.part == part:
+                return s
+        raise KeyError(f'plan has no step for part "{part}"; parts: {", ".join(self.sequence)}')
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"format": PLAN_FORMAT, "version": PLAN_VERSION, "product": self.product,
+                "source": self.source, "source_sha256": self.source_sha256,
+                "sequence": list(self.sequence), "sequence_note": self.sequence_note,
+                "settings": self.settings.as_dict(),
+                "steps": [s.to_dict() for s in self.steps]}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Plan:
+        if d.get("format") != PLAN_FORMAT:
+            raise ValueError(f"plan file: expected format {PLAN_FORMAT!r}, found {d.get('format')!r}")
+        if d.get("version") != PLAN_VERSION:
+            raise ValueError(f"plan file: expected version {PLAN_VERSION}, found {d.get('version')!r}")
+        return cls(product=d["product"], source=d["source"], source_sha256=d["source_sha256"],
+                   sequence=tuple(d["sequence"]), sequence_note=d.get("sequence_note", ""),
+                   settings=PlannerSettings.from_dict(d["settings"]),
+                   steps=tuple(Step.from_dict(s) for s in d["steps"]))
+
+    def to_json(self) -> str:
+        """Deterministic JSON text (sorted keys, 2-space indent, trailing newline)."""
+        return dumps_json(self.to_dict())
+
+    @classmethod
+    def from_json(cls, text: str) -> Plan:
+        return cls.from_dict(json.loads(text))
+
+    def write(self, path: str | Path) -> Path:
+        """Write the plan atomically (temp file in the same folder, fsync, os.replace)."""
+        return atomic_write_text(path, self.to_json())
+
+    @classmethod
+    def read(cls, path: str | Path) -> Plan:
+        return cls.from_json(Path(path).read_text(encoding="utf-8"))
