@@ -83,6 +83,7 @@ def staged_directory(target: str | os.PathLike[str]) -> Iterator[Path]:
     target = Path(target).resolve()
     target.parent.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=f".{target.name}.staging.", dir=target.parent))
+    os.chmod(stage, 0o777 & ~_UMASK)  # mkdtemp makes 0700; the output folder is a normal one
     try:
         yield stage
         _fsync_dir(stage)
