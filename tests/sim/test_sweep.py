@@ -1,0 +1,420 @@
+"""The sweep machinery: sampling, execution with retries, journal/resume, statistics.
+
+The tasks here are cheap but real: a seeded numpy computation, and a quasi-static, time-stepped
+model of a chamfered pin entering a hole under a compliant robot, whose success region is known
+in closed form (``chamfer_insertion_expected``). The PyBullet step sweep is tested where the
+simulator's step API lives. The module-level task functions are also imported by the Dask test
+(its workers import this module by name), so they must stay at module level.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import os
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from asmplan.sim import sweep as sw
+
+# --- the chamfer model ------------------------------------------------------------------------
+MATE = "pin_in_hole"
+STEP = "insert"
+CHAMFER_M = 0.5e-3  # radial width of the 45-degree chamfer at the hole mouth
+CLEARANCE = sw.ClearanceRange(MATE, 0.05e-3, 0.4e-3)  # declared diametral clearance range
+FRICTION = {"pin": 0.3, "block": 0.3}
+K_LATERAL_N_M = 1.0e4  # lateral stiffness of the robot holding the pin
+F_MAX_N = 20.0  # insertion force limit
+DEPTH_M = 5e-3
+DZ_M = 2e-6  # descent per tick
+
+
+def chamfer_insertion(params: sw.SampleParams) -> dict:
+    """Descend a pin at lateral error e onto a hole with a 45-degree chamfer.
+
+    ``u`` is how far the pin's leading edge overhangs the bore wall (e - c/2). The edge lands
+    on the flat top face (u >= chamfer: jam), on the chamfer (slides inward while the robot's
+    lateral spring pushes back; the force needed downward is k d (1 + mu) / (1 - mu) for a
+    lateral deflection d), or straight in the bore (u < 0). In the bore a deflected pin drags
+    along the wall with friction mu k d.
+    """
+    c = params.clearance_m[MATE]
+    mu = params.friction["pin"] * params.friction["block"] / 0.3  # product, normalised to 0.3 nominal
+    e = params.pose_error(STEP).lateral_norm_m
+    u_cmd = e - 0.5 * c
+    z = 1e-4  # the pin tip starts above the top face (z = 0), bore bottom at -DEPTH_M
+    u = u_cmd
+    peak = 0.0
+    reasons: list[str] = []
+    while z > -DEPTH_M:
+        z_cmd = z - DZ_M
+        if u >= CHAMFER_M and z_cmd < 0.0:
+            reasons.append(f"pin landed on the top face: overhang {u * 1e3:.3f} mm >= chamfer "
+                           f"{CHAMFER_M * 1e3:.3f} mm")
+            break
+        if 0.0 <= u < CHAMFER_M and z_cmd < u - CHAMFER_M:
+            u = max(z_cmd + CHAMFER_M, 0.0)  # slide down the chamfer
+            if mu >= 1.0:
+                reasons.append(f"friction {mu:.2f} >= 1 locks the 45-degree chamfer")
+                break
+            force = K_LATERAL_N_M * (u_cmd - u) * (1.0 + mu) / (1.0 - mu)
+            peak = max(peak, force)
+            if force > F_MAX_N:
+                reasons.append(f"wedged on the chamfer: {force:.2f} N > {F_MAX_N:.2f} N")
+                break
+            if u == 0.0:
+                u = -1e-12  # past the chamfer: in the bore
+        elif u < 0.0 and u_cmd > 0.0:
+            force = mu * K_LATERAL_N_M * u_cmd
+            peak = max(peak, force)
+            if force > F_MAX_N:
+                reasons.append(f"stuck on the bore wall: {force:.2f} N > {F_MAX_N:.2f} N")
+                break
+        z = z_cmd
+    success = not reasons
+    return {"steps": {STEP: {"success": success, "reasons": reasons}},
+            "depth_m": -min(z, 0.0), "peak_force_N": peak}
+
+
+def chamfer_insertion_expected(params: sw.SampleParams) -> bool:
+    """Closed form of :func:`chamfer_insertion`'s verdict."""
+    c = params.clearance_m[MATE]
+    mu = params.friction["pin"] * params.friction["block"] / 0.3
+    u = params.pose_error(STEP).lateral_norm_m - 0.5 * c
+    if u < 0:
+        return True
+    if u >= CHAMFER_M or mu >= 1:
+        return False
+    return K_LATERAL_N_M * u * (1 + mu) / (1 - mu) <= F_MAX_N and mu * K_LATERAL_N_M * u <= F_MAX_N
+
+
+def chamfer_samples(n: int, seed: int = 7, **spec_kw: object) -> tuple[sw.SweepSpec, list[sw.SampleParams]]:
+    kw: dict = {"pose_distribution": "uniform", "pose_lateral_m": 1.0e-3, "pose_angular_rad": 0.0}
+    kw.update(spec_kw)
+    spec = sw.SweepSpec(n_samples=n, seed=seed, **kw)
+    return spec, sw.draw_samples(spec, [CLEARANCE], FRICTION, [STEP])
+
+
+# --- other module-level tasks (picklable) ------------------------------------------------------
+def numpy_task(params: sw.SampleParams) -> dict:
+    """Eigenvalues of a seeded random symmetric matrix; success when the spectrum is narrow."""
+    rng = sw.factor_rng(params.seed, params.index, "work")
+    a = rng.normal(size=(40, 40))
+    w = np.linalg.eigvalsh(a + a.T)
+    spread = float(w[-1] - w[0])
+    return {"steps": {"work": {"success": spread < 35.0,
+                               "reasons": [] if spread < 35.0 else [f"spread {spread:.3f} >= 35"]}},
+            "eig": [float(v) for v in w[:3]]}
+
+
+def slow_in_reverse(i: int) -> int:
+    time.sleep(0.02 * (5 - i))
+    return i * i
+
+
+def raise_on_three(i: int) -> int:
+    if i == 3:
+        raise ValueError("three is not allowed")
+    return i
+
+
+def die_once(marker_dir: str, i: int) -> int:
+    """Kill the worker process the first time sample 2 runs."""
+    marker = Path(marker_dir) / f"died-{i}"
+    if i == 2 and not marker.exists():
+        marker.write_text("x")
+        os._exit(13)
+    return 10 * i
+
+
+def die_always(i: int) -> int:
+    if i == 2:
+        os._exit(13)
+    time.sleep(0.05)
+    return 10 * i
+
+
+PARENT_STATE = {"value": "import-time"}
+
+
+def read_parent_state(_: int) -> str:
+    return PARENT_STATE["value"]
+
+
+# --- sampling ---------------------------------------------------------------------------------
+def test_spec_validation_says_expected_and_found() -> None:
+    with pytest.raises(ValueError, match=r"n_samples: expected an integer >= 1, found 0"):
+        sw.SweepSpec(n_samples=0)
+    with pytest.raises(ValueError, match=r"vary: expected factors among .*found \['temperature'\]"):
+        sw.SweepSpec(n_samples=3, vary=("pose", "temperature"))
+    with pytest.raises(ValueError, match=r"friction_rel_sigma: expected a value in \[0, 1/3\), found 0.5"):
+        sw.SweepSpec(n_samples=3, friction_rel_sigma=0.5)
+    with pytest.raises(ValueError, match="pose_distribution"):
+        sw.SweepSpec(n_samples=3, pose_distribution="cauchy")  # type: ignore[arg-type]
+    # order and duplicates of `vary` do not matter
+    assert sw.SweepSpec(3, vary=("pose", "clearance", "pose")).vary == ("clearance", "pose")
+    spec = sw.SweepSpec(5, seed=3, vary=("pose",))
+    assert sw.SweepSpec.from_dict(json.loads(json.dumps(spec.to_dict()))) == spec
+
+
+def test_sample_depends_only_on_seed_index_and_factor() -> None:
+    steps = ["a", "b"]
+    big = sw.SweepSpec(n_samples=50, seed=11)
+    small = sw.SweepSpec(n_samples=3, seed=11, vary=("pose",))
+    ref = sw.draw_samples(big, [CLEARANCE], FRICTION, steps)
+    # the same sample drawn alone, out of order, in a smaller sweep: identical
+    for i in (37, 2, 49, 0):
+        assert sw.draw_sample(big, i, [CLEARANCE], FRICTION, steps) == ref[i]
+    # pose values do not change when clearance and friction stop varying
+    for i in range(3):
+        s = sw.draw_sample(small, i, [CLEARANCE], FRICTION, steps)
+        assert s.pose == ref[i].pose
+        assert s.clearance_m[MATE] == pytest.approx(0.225e-3)  # middle of the range
+        assert s.friction == FRICTION
+    # steps get independent errors; another seed gives other values
+    assert ref[0].pose["a"] != ref[0].pose["b"]
+    other = sw.draw_sample(sw.SweepSpec(50, seed=12), 0, [CLEARANCE], FRICTION, steps)
+    assert other.clearance_m != ref[0].clearance_m
+    assert sw.SampleParams.from_dict(json.loads(json.dumps(ref[4].to_dict()))) == ref[4]
+
+
+def test_sample_distributions_match_their_definition() -> None:
+    n = 4000
+    lo, hi = CLEARANCE.min_m, CLEARANCE.max_m
+    mid, rng_w = 0.5 * (lo + hi), hi - lo
+    # sd of a standard normal truncated to +-3: sqrt(1 - 2*3*phi(3)/(2*Phi(3) - 1))
+    phi3 = math.exp(-4.5) / math.sqrt(2 * math.pi)
+    trunc_sd = math.sqrt(1 - 6 * phi3 / math.erf(3 / math.sqrt(2)))
+
+    def draws(**kw: object) -> list[sw.SampleParams]:
+        spec = sw.SweepSpec(n_samples=n, seed=5, **kw)
+        return sw.draw_samples(spec, [CLEARANCE], FRICTION, [STEP])
+
+    uni = np.array([s.clearance_m[MATE] for s in draws()])
+    assert lo <= uni.min() and uni.max() <= hi
+    assert uni.mean() == pytest.approx(mid, abs=4 * rng_w / math.sqrt(12 * n))
+    assert uni.std() == pytest.approx(rng_w / math.sqrt(12), rel=0.05)
+
+    tn_samples = draws(clearance_distribution="truncnormal", friction_rel_sigma=0.1,
+                       pose_lateral_m=0.3e-3, pose_angular_rad=0.01)
+    tn = np.array([s.clearance_m[MATE] for s in tn_samples])
+    assert lo <= tn.min() and tn.max() <= hi
+    assert tn.std() == pytest.approx(rng_w / 6 * trunc_sd, rel=0.05)
+    mu = np.array([s.friction["pin"] for s in tn_samples])
+    assert mu.mean() == pytest.approx(0.3, abs=4 * 0.03 / math.sqrt(n))
+    assert mu.std() == pytest.approx(0.03 * trunc_sd, rel=0.05)
+    assert mu.min() >= 0.3 * 0.7 - 1e-12 and mu.max() <= 0.3 * 1.3 + 1e-12
+    lat = np.array([s.pose_error(STEP).lateral_m for s in tn_samples])
+    assert lat.std(axis=0) == pytest.approx([0.3e-3, 0.3e-3], rel=0.05)
+    assert np.abs(lat.mean(axis=0)).max() < 4 * 0.3e-3 / math.sqrt(n)
+
+    unif_pose = draws(pose_distribution="uniform", pose_lateral_m=1e-3)
+    mag = np.array([s.pose_error(STEP).lateral_norm_m for s in unif_pose])
+    assert mag.max() <= 1e-3
+    assert mag.mean() == pytest.approx(0.5e-3, abs=4 * 1e-3 / math.sqrt(12 * n))
+
+
+# --- execution --------------------------------------------------------------------------------
+def test_process_pool_gives_the_serial_results_in_index_order() -> None:
+    _, samples = chamfer_samples(24)
+    serial = [json.loads(json.dumps(numpy_task(s))) for s in samples]
+    results = sw.run_sweep(numpy_task, samples, max_workers=2)
+    assert [r.index for r in results] == list(range(24))
+    assert all(r.ok and r.attempts == 1 for r in results)
+    assert [r.value for r in results] == serial
+    # completion order differs from index order; the output is still by index
+    out = sw.run_sweep(slow_in_reverse, list(range(6)), executor=ThreadPoolExecutor(6))
+    assert [r.value for r in out] == [i * i for i in range(6)]
+
+
+def test_default_workers_are_not_forked_from_the_caller() -> None:
+    PARENT_STATE["value"] = "changed in the parent after import"
+    try:
+        results = sw.run_sweep(read_parent_state, [0, 1], max_workers=1)
+    finally:
+        PARENT_STATE["value"] = "import-time"
+    # a forked worker would see the parent's changed dict; a forkserver/spawned one re-imports
+    assert [r.value for r in results] == ["import-time", "import-time"]
+
+
+def test_a_task_that_raises_is_a_failed_result_not_a_crash() -> None:
+    results = sw.run_sweep(raise_on_three, list(range(6)), max_workers=2)
+    assert [r.ok for r in results] == [True, True, True, False, True, True]
+    assert results[3].error is not None
+    assert "ValueError: three is not allowed" in results[3].error
+    assert results[3].attempts == 1  # not retried: a deterministic task raises again
+    bad = sw.run_sweep(float, [float("nan")], executor=ThreadPoolExecutor(1))
+    assert not bad[0].ok and "not JSON-safe" in (bad[0].error or "")
+
+
+@pytest.mark.slow
+def test_a_worker_that_dies_is_retried(tmp_path: Path) -> None:
+    task = functools.partial(die_once, str(tmp_path))
+    results = sw.run_sweep(task, list(range(8)), max_workers=2)
+    assert [r.value for r in results] == [10 * i for i in range(8)]
+    assert results[2].attempts == 2
+    assert (tmp_path / "died-2").exists()
+
+
+@pytest.mark.slow
+def test_a_sample_that_keeps_killing_its_worker_is_recorded_after_retries() -> None:
+    results = sw.run_sweep(die_always, list(range(6)), max_workers=2, retries=1)
+    assert results[2].ok is False
+    assert results[2].error is not None and "worker died 2 times" in results[2].error
+    others = [r for r in results if r.index != 2]
+    assert [r.value for r in others] == [0, 10, 30, 40, 50]
+    # innocent samples caught in the crash are re-run once on their own, never charged twice
+    assert max(r.attempts for r in others) <= 2
+    # even without retries only the culprit fails: a death counts only when a sample ran alone
+    strict = sw.run_sweep(die_always, list(range(6)), max_workers=2, retries=0)
+    assert [r.ok for r in strict] == [True, True, False, True, True, True]
+    assert strict[2].error is not None and "worker died 1 time running" in strict[2].error
+
+
+# --- journal and resume -----------------------------------------------------------------------
+class CountingTask:
+    """In-process task (threads) that records which samples ran."""
+
+    def __init__(self) -> None:
+        self.calls: list[int] = []
+        self.lock = threading.Lock()
+
+    def __call__(self, params: sw.SampleParams) -> dict:
+        with self.lock:
+            self.calls.append(params.index)
+        return chamfer_insertion(params)
+
+
+def test_resume_skips_finished_samples_and_survives_a_torn_last_line(tmp_path: Path) -> None:
+    spec, samples = chamfer_samples(10)
+    header = sw.journal_header(spec, sw.sha256_hex("chamfer model v1"))
+    path = tmp_path / sw.JOURNAL_NAME
+    with sw.SweepJournal(path, header) as j:
+        full = sw.run_sweep(chamfer_insertion, samples, executor=ThreadPoolExecutor(2), journal=j)
+    lines = path.read_bytes().split(b"\n")
+    assert len(lines) == 12 and lines[-1] == b""  # header + 10 records, newline-terminated
+    # a crash after 4 records, in the middle of writing the 5th
+    path.write_bytes(b"\n".join(lines[:5]) + b"\n" + lines[5][: len(lines[5]) // 2])
+    task = CountingTask()
+    with sw.SweepJournal(path, header) as j:
+        assert sorted(j.finished) == sorted(json.loads(x)["index"] for x in lines[1:5])
+        assert j.truncated_bytes == len(lines[5]) // 2
+        finished_before = set(j.finished)
+        resumed = sw.run_sweep(task, samples, executor=ThreadPoolExecutor(2), journal=j)
+    assert sorted(task.calls) == sorted(set(range(10)) - finished_before)
+    assert len(task.calls) == 6
+    assert resumed == full
+    # the journal is whole again: every line parses, every sample once
+    records = [json.loads(x) for x in path.read_bytes().split(b"\n")[1:-1]]
+    assert sorted(r["index"] for r in records) == list(range(10))
+    # nothing left to do: a second resume runs nothing
+    again = CountingTask()
+    with sw.SweepJournal(path, header) as j:
+        assert sw.run_sweep(again, samples, executor=ThreadPoolExecutor(2), journal=j) == full
+    assert again.calls == []
+
+
+def test_resume_with_more_samples_runs_only_the_new_ones(tmp_path: Path) -> None:
+    spec, samples = chamfer_samples(6)
+    spec12, samples12 = chamfer_samples(12)
+    path = tmp_path / sw.JOURNAL_NAME
+    fp = sw.sha256_hex("model")
+    with sw.SweepJournal(path, sw.journal_header(spec, fp)) as j:
+        sw.run_sweep(chamfer_insertion, samples, executor=ThreadPoolExecutor(2), journal=j)
+    task = CountingTask()
+    with sw.SweepJournal(path, sw.journal_header(spec12, fp)) as j:
+        out = sw.run_sweep(task, samples12, executor=ThreadPoolExecutor(2), journal=j)
+    assert sorted(task.calls) == list(range(6, 12))
+    assert [r.value for r in out] == [json.loads(json.dumps(chamfer_insertion(s))) for s in samples12]
+
+
+def test_resume_with_a_different_sweep_is_refused(tmp_path: Path) -> None:
+    spec, _ = chamfer_samples(4)
+    path = tmp_path / sw.JOURNAL_NAME
+    sw.SweepJournal(path, sw.journal_header(spec, "abc")).close()
+    other, _ = chamfer_samples(4, seed=8)
+    with pytest.raises(sw.JournalMismatchError, match=r"spec.seed: journal has 7, this run has 8"):
+        sw.SweepJournal(path, sw.journal_header(other, "abc"))
+    with pytest.raises(sw.JournalMismatchError, match=r"fingerprint: journal has 'abc', this run has 'abd'"):
+        sw.SweepJournal(path, sw.journal_header(spec, "abd"))
+
+
+def test_journal_corruption_before_the_last_line_and_a_second_writer_are_errors(tmp_path: Path) -> None:
+    spec, samples = chamfer_samples(3)
+    header = sw.journal_header(spec, "fp")
+    path = tmp_path / sw.JOURNAL_NAME
+    with sw.SweepJournal(path, header) as j:
+        sw.run_sweep(chamfer_insertion, samples, executor=ThreadPoolExecutor(1), journal=j)
+        with pytest.raises(sw.JournalLockedError, match="another process is writing"):
+            sw.SweepJournal(path, header)
+    lines = path.read_bytes().split(b"\n")
+    lines[2] = b'{"index": 1, "ok": tru'
+    path.write_bytes(b"\n".join(lines))
+    with pytest.raises(sw.JournalCorruptError, match=r"sweep-journal.jsonl:3: not a sample record"):
+        sw.SweepJournal(path, header)
+
+
+# --- statistics -------------------------------------------------------------------------------
+@pytest.mark.parametrize(("k", "n", "low", "high"), [
+    # Newcombe (1998), Statistics in Medicine 17:857, Table I, method 3 (Wilson score)
+    (81, 263, 0.2553, 0.3662),
+    (15, 148, 0.0624, 0.1605),
+    (0, 20, 0.0000, 0.1611),
+    (1, 29, 0.0061, 0.1718),
+])
+def test_wilson_interval_matches_published_values(k: int, n: int, low: float, high: float) -> None:
+    lo, hi = sw.wilson_interval(k, n)
+    assert lo == pytest.approx(low, abs=1e-4)
+    assert hi == pytest.approx(high, abs=1e-4)
+
+
+def test_factor_effect_finds_a_step_in_success() -> None:
+    rng = np.random.default_rng(0)
+    x = rng.uniform(0.0, 1.0, 400)
+    noise = rng.uniform(0.0, 1.0, 400)
+    ok = x < 0.6
+    eff = sw.factor_effect("x", x, ok, n_bins=10)
+    assert eff.correlation < -0.7 and eff.p_value < 1e-10
+    assert eff.x50 == pytest.approx(0.6, abs=0.02)
+    assert [b.rate for b in eff.bins[:6]] == [1.0] * 6 and [b.rate for b in eff.bins[6:]] == [0.0] * 4
+    flat = sw.factor_effect("noise", noise, ok)
+    assert abs(flat.correlation) < 0.15  # 4/sqrt(400) would be 0.2
+    assert math.isnan(sw.factor_effect("x", x, np.ones(400, bool)).correlation)
+
+
+def test_summary_of_a_pose_sweep_shows_the_chamfer_limit() -> None:
+    spec, samples = chamfer_samples(400)
+    results = sw.run_sweep(chamfer_insertion, samples, executor=ThreadPoolExecutor(2))
+    expected = [chamfer_insertion_expected(s) for s in samples]
+    assert [r.value["steps"][STEP]["success"] for r in results] == expected
+    summary = sw.summarize(samples, results, spec.vary)
+    st = summary.step(STEP)
+    assert (st.n, st.successes) == (400, sum(expected))
+    assert st.ci_low < st.rate < st.ci_high
+    # success falls where the lateral error passes half the clearance plus the chamfer width
+    assert st.driver == "pose_lateral_m"
+    pose = next(e for e in st.effects if e.factor == "pose_lateral_m")
+    assert 0.5 * CLEARANCE.min_m + CHAMFER_M - 0.05e-3 < pose.x50 < 0.5 * CLEARANCE.max_m + CHAMFER_M
+    assert all(b.rate == 1.0 for b in pose.bins if b.high <= 0.5 * CLEARANCE.min_m + CHAMFER_M)
+    assert all(b.rate == 0.0 for b in pose.bins if b.low >= 0.5 * CLEARANCE.max_m + CHAMFER_M)
+    assert st.failure_reasons == (
+        ("pin landed on the top face: overhang # mm >= chamfer # mm", 400 - sum(expected)),)
+    # clearance helps (positive correlation) but less than pose error
+    clear = next(e for e in st.effects if e.factor == f"clearance[{MATE}]")
+    assert 0 < clear.correlation < abs(pose.correlation)
+    json.dumps(summary.to_dict(), allow_nan=False)
+
+
+def test_summary_leaves_errored_samples_out_of_the_rates() -> None:
+    spec, samples = chamfer_samples(5)
+    results = [sw.TaskResult(i, True, chamfer_insertion(s)) for i, s in enumerate(samples)]
+    results[1] = sw.TaskResult(1, False, None, "worker died 3 times running this sample (X)", 3)
+    summary = sw.summarize(samples, results, spec.vary)
+    assert summary.n_errors == 1 and summary.errors == (("worker died # times running this sample (X)", 1),)
+    assert summary.step(STEP).n == 4
