@@ -806,9 +806,9 @@ def run_sweep(
                         continue
                     deaths[i] += 1
                     if deaths[i] > retries:
+                        times = f"{deaths[i]} time{'s' if deaths[i] != 1 else ''}"
                         finish(TaskResult(
-                            i, False, None,
-                            f"worker died {deaths[i]} time{'s' if deaths[i] != 1 else ''} running this sample "
+                            i, False, None, f"worker died {times} running this sample "
                             f"({type(exc).__name__}: {exc})", started[i]))
                     elif pool_broke:
                         isolate.appendleft(i)
@@ -1149,7 +1149,8 @@ class Throughput:
     """Simulations per second through one executor.
 
     ``startup_s`` is the time to create the executor and run one warm-up task per worker;
-    ``per_second`` counts only the timed run after that.
+    ``wall_s`` is the median over ``repeats`` timed runs after that, and ``per_second`` is
+    ``n_tasks / wall_s``.
     """
 
     label: str
@@ -1158,6 +1159,7 @@ class Throughput:
     startup_s: float
     wall_s: float
     per_second: float
+    repeats: int = 1
 
 
 def _warm_up(executor: cf.Executor, workers: int) -> None:
@@ -1174,6 +1176,7 @@ def measure_throughput(
     params_list: Sequence[Any],
     make_executor: Callable[[], tuple[cf.Executor, Callable[[], None]]],
     workers: int,
+    repeats: int = 1,
 ) -> Throughput:
     """Time :func:`run_sweep` of ``task`` over ``params_list`` on a freshly made executor.
 
@@ -1181,17 +1184,23 @@ def measure_throughput(
     """
     t0 = time.perf_counter()
     ex, close = make_executor()
+    walls = []
     try:
         _warm_up(ex, workers)
-        t1 = time.perf_counter()
-        results = run_sweep(task, params_list, executor=ex, retries=0)
-        t2 = time.perf_counter()
+        startup = time.perf_counter() - t0
+        for _ in range(repeats):
+            t1 = time.perf_counter()
+            results = run_sweep(task, params_list, executor=ex, retries=0)
+            walls.append(time.perf_counter() - t1)
+            bad = [r for r in results if not r.ok]
+            if bad:
+                raise SweepError(
+                    f"throughput run {label}: {len(bad)} tasks failed, first: {bad[0].error}")
     finally:
         close()
-    bad = [r for r in results if not r.ok]
-    if bad:
-        raise SweepError(f"throughput run {label}: {len(bad)} tasks failed, first: {bad[0].error}")
-    return Throughput(label, workers, len(params_list), t1 - t0, t2 - t1, len(params_list) / (t2 - t1))
+    wall = float(np.median(walls))
+    return Throughput(label, workers, len(params_list), startup, wall, len(params_list) / wall,
+                      repeats)
 
 
 def throughput(
@@ -1199,6 +1208,7 @@ def throughput(
     params_list: Sequence[Any],
     local_workers: Sequence[int] = (1, 2),
     dask_workers: int | None = 2,
+    repeats: int = 1,
 ) -> list[Throughput]:
     """Simulations per second with local process pools and a local Dask cluster.
 
@@ -1211,6 +1221,8 @@ def throughput(
     dask_workers : int or None
         Workers (one thread each, separate processes) of a ``distributed.LocalCluster`` to
         time; None skips Dask (so does a missing Dask installation).
+    repeats : int
+        Timed runs per executor (the median is reported).
 
     Returns
     -------
@@ -1223,7 +1235,7 @@ def throughput(
             return ex, lambda: ex.shutdown(wait=True)
 
         out.append(measure_throughput(f"local pool, {w} worker{'s' if w != 1 else ''}",
-                                      task, params_list, make, w))
+                                      task, params_list, make, w, repeats))
     if dask_workers:
         try:
             from dask.distributed import Client, LocalCluster
@@ -1242,8 +1254,57 @@ def throughput(
             return client.get_executor(pure=False), close
 
         out.append(measure_throughput(f"Dask LocalCluster, {dask_workers} workers",
-                                      task, params_list, make_dask, dask_workers))
+                                      task, params_list, make_dask, dask_workers, repeats))
     return out
+
+
+def calibration_task(index: int, n_rounds: int = 100) -> dict[str, float]:
+    """Fixed, deterministic CPU work standing in for one simulation (~0.2 s on a 2-core box).
+
+    Single-threaded element-wise numpy (no BLAS, so no hidden threads) working in place: no
+    large allocations, whose cost differs between executors (Dask's nanny sets
+    ``MALLOC_TRIM_THRESHOLD_``, which makes every 800 kB temporary an mmap/munmap pair and the
+    same work ~1.7x slower). What it measures is the executors' overhead and scaling, not a
+    physics figure.
+    """
+    x = np.linspace(0.0, 1.0, 100_000) + 1e-6 * index
+    y = np.empty_like(x)
+    for _ in range(n_rounds):  # x <- sin(3.1 x) + 0.5 x
+        np.multiply(x, 3.1, out=y)
+        np.sin(y, out=y)
+        x *= 0.5
+        x += y
+    return {"checksum": float(x.sum())}
+
+
+def format_throughput(rows: Sequence[Throughput]) -> str:
+    """A Markdown table of :func:`throughput` rows."""
+    lines = ["| executor | workers | tasks | start-up (s) | median wall (s) | repeats | tasks/s |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    lines += [f"| {r.label} | {r.workers} | {r.n_tasks} | {r.startup_s:.2f} | {r.wall_s:.2f} | "
+              f"{r.repeats} | {r.per_second:.2f} |" for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m asmplan.sim.sweep``: time :func:`calibration_task` on each executor."""
+    import argparse
+    import functools
+    import sys
+
+    parser = argparse.ArgumentParser(prog="python -m asmplan.sim.sweep",
+                                     description="Sweep throughput with local pools and Dask.")
+    parser.add_argument("--tasks", type=int, default=100, help="tasks per executor")
+    parser.add_argument("--rounds", type=int, default=100, help="work per task (calibration)")
+    parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--dask-workers", type=int, default=2, help="0 skips Dask")
+    parser.add_argument("--repeats", type=int, default=3, help="timed runs per executor")
+    args = parser.parse_args(argv)
+    task = functools.partial(calibration_task, n_rounds=args.rounds)
+    rows = throughput(task, list(range(args.tasks)), args.workers, args.dask_workers or None,
+                      args.repeats)
+    sys.stdout.write(format_throughput(rows))
+    return 0
 
 
 def iter_journal_results(path: str | os.PathLike[str]) -> Iterator[TaskResult]:
@@ -1253,3 +1314,7 @@ def iter_journal_results(path: str | os.PathLike[str]) -> Iterator[TaskResult]:
     for raw in lines[1:-1]:
         if raw.strip():
             yield TaskResult.from_dict(json.loads(raw))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

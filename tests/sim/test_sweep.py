@@ -418,3 +418,16 @@ def test_summary_leaves_errored_samples_out_of_the_rates() -> None:
     summary = sw.summarize(samples, results, spec.vary)
     assert summary.n_errors == 1 and summary.errors == (("worker died # times running this sample (X)", 1),)
     assert summary.step(STEP).n == 4
+
+
+def test_throughput_times_each_executor_on_the_same_work() -> None:
+    task = functools.partial(sw.calibration_task, n_rounds=2)
+    rows = sw.throughput(task, list(range(8)), local_workers=(1, 2), dask_workers=None, repeats=2)
+    assert [(r.label, r.workers, r.n_tasks, r.repeats) for r in rows] == [
+        ("local pool, 1 worker", 1, 8, 2), ("local pool, 2 workers", 2, 8, 2)]
+    assert all(r.per_second == pytest.approx(8 / r.wall_s) for r in rows)
+    table = sw.format_throughput(rows).splitlines()
+    assert len(table) == 4 and table[2].startswith("| local pool, 1 worker | 1 | 8 |")
+    # the stand-in work is deterministic wherever it runs
+    out = sw.run_sweep(task, [0, 1], max_workers=1)
+    assert [r.value for r in out] == [task(0), task(1)]
