@@ -1,0 +1,517 @@
+"""Execute one assembly step in a :class:`BulletWorld` and judge it.
+
+:func:`execute_step` drives a :class:`~asmplan.sim.gripper.Gripper` along a
+:class:`~asmplan.planner.trajectory.Trajectory` at the world's fidelity, records every control
+tick into a :class:`~asmplan.sim.records.StepRecord` and returns a
+:class:`~asmplan.sim.records.StepOutcome`. :func:`settle` runs a scene without a gripper
+(stability checks), :func:`scene_warnings` flags scenes the fidelity cannot resolve.
+
+Definitions
+-----------
+* Commands are applied every physics step: the finger force is the trajectory's value at the
+  END of the step, the pose-constraint target its pose :attr:`Gripper.pose_lead_s` later
+  (cancels the constraint's lag). In "approach"/"retreat" the fingers
+  are position-controlled open; in every other phase they are force-controlled.
+* Finger frame: the measured TCP frame shifted along its y axis to the midpoint of the two
+  pads' faces (the pads may float together along y under force control). Slip is the change
+  of the part's pose in this frame since the end of the "clamp" phase (first tick at or after
+  it): translation norm (m) and rotation angle (rad).
+* Measured clamp force of a finger: sum of the contact normal forces between its pad and the
+  part. External force: total contact force (normal + friction) on the part from every other
+  body and from the palm.
+* Dropped: during the held phases (hold, lift, translate, lower) neither finger touches the
+  part at some tick, or the slip exceeds ``criteria.drop_slip_m``.
+* Energy growth: the part's kinetic energy exceeds ``2 * 0.5 m v_allow^2`` with
+  ``v_allow = 2 v_tcp_max + sqrt(2 g dz) + 0.1 m/s`` (``v_tcp_max`` the trajectory's peak TCP
+  speed, ``dz`` the part's largest drop below its start height): faster than the commanded
+  motion and free fall can explain, i.e. the solver injected energy.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from asmplan.planner.trajectory import (
+    OPEN_PHASES,
+    Trajectory,
+    quat_xyzw_from_matrix,
+    rotation_angle_rad,
+)
+from asmplan.sim.bullet import BulletWorld, invert_pose
+from asmplan.sim.gripper import FINGER_LINKS, Gripper
+from asmplan.sim.records import HELD_PHASES, StepOutcome, StepRecord, SuccessCriteria
+
+_SPEED_MARGIN_MPS = 0.1
+
+
+def _finger_frame(T_world_tcp: np.ndarray, travel: np.ndarray) -> np.ndarray:
+    T = T_world_tcp.copy()
+    y_mid = 0.5 * (travel[1] - travel[0])
+    T[:3, 3] = T_world_tcp[:3, 3] + T_world_tcp[:3, 1] * y_mid
+    return T
+
+
+def _trajectory_peak_speed(trajectory: Trajectory) -> float:
+    p = trajectory.T_world_gripper[:, :3, 3]
+    dt = np.diff(trajectory.t_s)
+    if dt.size == 0:
+        return 0.0
+    return float(np.max(np.linalg.norm(np.diff(p, axis=0), axis=1) / dt))
+
+
+def scene_warnings(
+    fidelity_min_clearance_m: float,
+    diametral_clearances_m: Sequence[float] = (),
+    masses_kg: Sequence[float] = (),
+    smallest_feature_m: float | None = None,
+    dt_s: float | None = None,
+    peak_speed_mps: float = 0.0,
+) -> tuple[str, ...]:
+    """Warnings for scenes the chosen fidelity may not resolve (checked before running).
+
+    Parameters
+    ----------
+    fidelity_min_clearance_m : float
+        ``Fidelity.min_resolvable_clearance_m``.
+    diametral_clearances_m : sequence of float
+        Diametral clearances of the fits involved, m (negative for interference).
+    masses_kg : sequence of float
+        Masses of the dynamic bodies in contact, kg.
+    smallest_feature_m : float, optional
+        Smallest dimension of any dynamic part, m.
+    dt_s : float, optional
+        Time step, s (with ``peak_speed_mps``, checks tunnelling of small parts).
+    peak_speed_mps : float
+        Largest expected part speed, m/s.
+
+    Returns
+    -------
+    tuple of str
+    """
+    out = []
+    for c in diametral_clearances_m:
+        if 0.0 <= c < fidelity_min_clearance_m:
+            out.append(
+                f"diametral clearance {c * 1e3:.3f} mm is below this fidelity's smallest "
+                f"resolvable clearance {fidelity_min_clearance_m * 1e3:.3f} mm"
+            )
+    live = [m for m in masses_kg if m > 0]
+    if len(live) >= 2:
+        ratio = max(live) / min(live)
+        if ratio > 100.0:
+            out.append(
+                f"mass ratio {ratio:.0f}:1 between contacting bodies exceeds 100:1; the "
+                f"iterative solver lets the heavy body sink into the light one"
+            )
+    if smallest_feature_m is not None and dt_s is not None and peak_speed_mps > 0:
+        travel = peak_speed_mps * dt_s
+        if travel > 0.25 * smallest_feature_m:
+            out.append(
+                f"a part of {smallest_feature_m * 1e3:.2f} mm moves {travel * 1e3:.2f} mm per "
+                f"step at {peak_speed_mps:.2f} m/s; contacts may be missed (tunnelling)"
+            )
+    return tuple(out)
+
+
+def execute_step(
+    world: BulletWorld,
+    gripper: Gripper,
+    part_body: int,
+    trajectory: Trajectory,
+    criteria: SuccessCriteria | None = None,
+    T_world_part_target: np.ndarray | None = None,
+    mate_axis_world: Sequence[float] | None = None,
+    warnings: Sequence[str] = (),
+) -> tuple[StepRecord, StepOutcome]:
+    """Drive the gripper along ``trajectory`` and judge the step.
+
+    Parameters
+    ----------
+    world : BulletWorld
+        World holding the gripper and the part; simulated from its current state.
+    gripper : Gripper
+        Gripper already at ``trajectory.pose_at(t_s[0])`` with the part between its fingers
+        (or able to reach it in "approach").
+    part_body : int
+        Body id of the part being moved.
+    trajectory : Trajectory
+    criteria : SuccessCriteria, optional
+    T_world_part_target : (4, 4) float array, optional
+        Where the part should end; without it the pose criteria are skipped.
+    mate_axis_world : (3,) float, optional
+        Insertion direction (unit vector, world frame), e.g. (0, 0, -1) for a vertical
+        insertion from above; enables the axial/lateral errors.
+    warnings : sequence of str
+        Warnings to carry into the outcome (e.g. from :func:`scene_warnings`).
+
+    Returns
+    -------
+    (StepRecord, StepOutcome)
+    """
+    crit = SuccessCriteria() if criteria is None else criteria
+    fid = world.fidelity
+    dt = fid.dt_s
+    k = fid.record_every_steps
+    t0 = float(trajectory.t_s[0])
+    n_steps = max(1, round(trajectory.duration_s / dt))
+    t_cmd = t0 + dt * np.arange(1, n_steps + 1)
+    T_cmd = trajectory.poses_at(t_cmd + gripper.pose_lead_s)
+    pos_cmd = T_cmd[:, :3, 3]
+    quat_cmd = quat_xyzw_from_matrix(T_cmd[:, :3, :3])
+    f_cmd = trajectory.forces_at(t_cmd)
+    phase_idx = trajectory.phase_indices_at(t_cmd)
+    names = tuple(p.name for p in trajectory.phases)
+    is_open = np.array([names[i] in OPEN_PHASES for i in phase_idx])
+    f_cmd = np.where(is_open, 0.0, f_cmd)
+    clamp_end = next((p.t_end_s for p in trajectory.phases if p.name == "clamp"), t0)
+
+    target = None if T_world_part_target is None else np.asarray(T_world_part_target, float)
+    axis = None
+    if mate_axis_world is not None:
+        axis = np.asarray(mate_axis_world, dtype=float)
+        axis = axis / np.linalg.norm(axis)
+        if target is None:
+            raise ValueError("mate_axis_world given without T_world_part_target")
+
+    tick_steps = [i for i in range(n_steps) if (i + 1) % k == 0 or i == n_steps - 1]
+    m = len(tick_steps)
+    rec = {
+        "t_s": np.zeros(m),
+        "phase_index": np.zeros(m, dtype=int),
+        "commanded_force_N": np.zeros(m),
+        "measured_force_N": np.zeros((m, 2)),
+        "slip_m": np.zeros(m),
+        "slip_rad": np.zeros(m),
+        "T_world_part": np.zeros((m, 4, 4)),
+        "T_world_gripper": np.zeros((m, 4, 4)),
+        "finger_travel_m": np.zeros((m, 2)),
+        "axial_error_m": np.full(m, np.nan),
+        "lateral_error_m": np.full(m, np.nan),
+        "external_force_N": np.zeros((m, 3)),
+        "max_penetration_m": np.zeros(m),
+        "speed_mps": np.zeros(m),
+        "kinetic_energy_J": np.zeros(m),
+    }
+    T_grip_part_ref: np.ndarray | None = None
+    nan_detected = False
+    mode_open: bool | None = None
+    wall0 = time.perf_counter()
+    r = 0
+    for i in range(n_steps):
+        gripper.command_pose_pq(pos_cmd[i], quat_cmd[i])
+        if is_open[i]:
+            if mode_open is not True:
+                gripper.command_open()
+                mode_open = True
+        else:
+            gripper.command_clamp_force(float(f_cmd[i]))
+            mode_open = False
+        world.step()
+        if r >= m or tick_steps[r] != i:
+            continue
+        T_part = world.pose(part_body)
+        T_tcp = gripper.tcp_pose()
+        travel = gripper.finger_travel_m()
+        con = world.contacts(part_body)
+        is_finger = (con.body_b == gripper.body) & np.isin(con.link_b, FINGER_LINKS)
+        forces = [
+            float(np.sum(con.normal_force_N[is_finger & (con.link_b == link)]))
+            for link in FINGER_LINKS
+        ]
+        external = con.select(~is_finger).force_on_a_N()
+        v, _ = world.velocity(part_body)
+        ke = world.kinetic_energy_J(part_body)
+        T_grip = _finger_frame(T_tcp, travel)
+        T_grip_part = invert_pose(T_grip) @ T_part
+        t = float(t_cmd[i])
+        if T_grip_part_ref is None and t >= clamp_end - 1e-12:
+            T_grip_part_ref = T_grip_part
+        if T_grip_part_ref is not None:
+            d = T_grip_part[:3, 3] - T_grip_part_ref[:3, 3]
+            rec["slip_m"][r] = float(np.linalg.norm(d))
+            rec["slip_rad"][r] = float(
+                rotation_angle_rad(T_grip_part_ref[:3, :3].T @ T_grip_part[:3, :3])
+            )
+        if target is not None and axis is not None:
+            e = target[:3, 3] - T_part[:3, 3]
+            ax = float(e @ axis)
+            rec["axial_error_m"][r] = ax
+            rec["lateral_error_m"][r] = float(np.linalg.norm(e - ax * axis))
+        rec["t_s"][r] = t
+        rec["phase_index"][r] = int(phase_idx[i])
+        rec["commanded_force_N"][r] = float(f_cmd[i])
+        rec["measured_force_N"][r] = forces
+        rec["T_world_part"][r] = T_part
+        rec["T_world_gripper"][r] = T_tcp
+        rec["finger_travel_m"][r] = travel
+        rec["external_force_N"][r] = external
+        rec["max_penetration_m"][r] = con.max_penetration_m()
+        rec["speed_mps"][r] = float(np.linalg.norm(v))
+        rec["kinetic_energy_J"][r] = ke
+        if not (np.all(np.isfinite(T_part)) and np.all(np.isfinite(v)) and math.isfinite(ke)):
+            nan_detected = True
+        r += 1
+        if nan_detected:
+            break
+    wall = time.perf_counter() - wall0
+    if r < m:  # stopped early on NaN: keep the rows written so far
+        rec = {name: a[:r] for name, a in rec.items()}
+    record = StepRecord(phase_names=names, **rec)
+    outcome = judge(
+        record,
+        trajectory,
+        crit,
+        part_mass_kg=world.body_mass_kg(part_body),
+        gravity_mps2=float(np.linalg.norm(world.gravity_mps2)),
+        T_world_part_target=target,
+        mate_axis_world=axis,
+        nan_detected=nan_detected,
+        warnings=tuple(warnings),
+        wall_time_s=wall,
+    )
+    return record, outcome
+
+
+def judge(
+    record: StepRecord,
+    trajectory: Trajectory,
+    criteria: SuccessCriteria,
+    part_mass_kg: float,
+    gravity_mps2: float = 9.81,
+    T_world_part_target: np.ndarray | None = None,
+    mate_axis_world: np.ndarray | None = None,
+    nan_detected: bool = False,
+    warnings: tuple[str, ...] = (),
+    wall_time_s: float = 0.0,
+) -> StepOutcome:
+    """Apply the success criteria to a record (see the module docstring for definitions)."""
+    reasons: list[str] = []
+    n = record.n_ticks
+    if n == 0:
+        return StepOutcome(
+            success=False,
+            reasons=("no tick recorded (NaN at the first step)",),
+            warnings=warnings,
+            final_position_error_m=math.nan,
+            final_angle_error_rad=math.nan,
+            final_axial_error_m=math.nan,
+            max_slip_m=math.nan,
+            max_slip_rad=math.nan,
+            dropped=True,
+            peak_clamp_force_N=math.nan,
+            clamp_force_mae_N=math.nan,
+            peak_insertion_force_N=math.nan,
+            max_penetration_m=math.nan,
+            nan_detected=True,
+            energy_growth=False,
+            wall_time_s=wall_time_s,
+        )
+    clamp_end = next((p.t_end_s for p in trajectory.phases if p.name == "clamp"), record.t_s[0])
+    held = record.phase_mask(*HELD_PHASES) & (record.t_s >= clamp_end - 1e-12)
+    max_slip = float(np.max(record.slip_m[held])) if held.any() else 0.0
+    max_slip_rad = float(np.max(record.slip_rad[held])) if held.any() else 0.0
+    lost = held & (np.max(record.measured_force_N, axis=1) <= 0.0)
+    dropped = bool(lost.any()) or max_slip > criteria.drop_slip_m
+    mae = (
+        float(np.mean(np.abs(record.measured_force_N[held] - record.commanded_force_N[held, None])))
+        if held.any()
+        else math.nan
+    )
+    peak_clamp = float(np.max(record.measured_force_N))
+    lower = record.phase_mask("lower")
+    ext = np.linalg.norm(record.external_force_N, axis=1)
+    peak_insert = float(np.max(ext[lower])) if lower.any() else 0.0
+    max_pen = float(np.max(record.max_penetration_m))
+
+    pos_err = ang_err = axial_err = math.nan
+    T_final = record.T_world_part[-1]
+    if T_world_part_target is not None:
+        pos_err = float(np.linalg.norm(T_final[:3, 3] - T_world_part_target[:3, 3]))
+        R_err = T_world_part_target[:3, :3].T @ T_final[:3, :3]
+        if mate_axis_world is not None and criteria.ignore_rotation_about_axis:
+            a_part = T_world_part_target[:3, :3].T @ mate_axis_world
+            tilt = float(np.clip((R_err @ a_part) @ a_part, -1.0, 1.0))
+            ang_err = math.acos(tilt)
+        else:
+            ang_err = float(rotation_angle_rad(R_err))
+        if mate_axis_world is not None:
+            axial_err = float(record.axial_error_m[-1])
+
+    # energy growth: faster than commanded motion plus free fall can explain
+    z0 = record.T_world_part[0, 2, 3]
+    drop = max(0.0, float(z0 - np.min(record.T_world_part[:, 2, 3])))
+    v_allow = (
+        2.0 * _trajectory_peak_speed(trajectory)
+        + math.sqrt(2.0 * gravity_mps2 * drop)
+        + _SPEED_MARGIN_MPS
+    )
+    ke_allow = 2.0 * 0.5 * part_mass_kg * v_allow**2
+    ke_max = float(np.max(record.kinetic_energy_J))
+    energy_growth = bool(ke_max > ke_allow)
+
+    if nan_detected:
+        reasons.append(f"NaN in the simulation state at t = {record.t_s[-1]:.4f} s")
+    if dropped:
+        if lost.any():
+            t_lost = float(record.t_s[np.argmax(lost)])
+            reasons.append(f"part dropped: no finger contact at t = {t_lost:.3f} s in a held phase")
+        else:
+            reasons.append(
+                f"part dropped: slip {max_slip * 1e3:.2f} mm > {criteria.drop_slip_m * 1e3:.2f} mm"
+            )
+    if max_slip > criteria.max_slip_m:
+        reasons.append(
+            f"slip {max_slip * 1e3:.3f} mm > limit {criteria.max_slip_m * 1e3:.3f} mm"
+        )
+    if max_slip_rad > criteria.max_slip_rad:
+        reasons.append(
+            f"rotational slip {math.degrees(max_slip_rad):.2f} deg > limit "
+            f"{math.degrees(criteria.max_slip_rad):.2f} deg"
+        )
+    if T_world_part_target is not None:
+        if mate_axis_world is not None and axial_err > criteria.axial_tol_m:
+            reasons.append(
+                f"insertion depth not reached: {axial_err * 1e3:.3f} mm short of the target "
+                f"along the mate axis (tolerance {criteria.axial_tol_m * 1e3:.3f} mm)"
+            )
+        if pos_err > criteria.position_tol_m:
+            reasons.append(
+                f"final position error {pos_err * 1e3:.3f} mm > tolerance "
+                f"{criteria.position_tol_m * 1e3:.3f} mm"
+            )
+        if ang_err > criteria.angle_tol_rad:
+            reasons.append(
+                f"final angle error {math.degrees(ang_err):.2f} deg > tolerance "
+                f"{math.degrees(criteria.angle_tol_rad):.2f} deg"
+            )
+    if peak_insert > criteria.max_insertion_force_N:
+        reasons.append(
+            f"peak insertion force {peak_insert:.2f} N > limit "
+            f"{criteria.max_insertion_force_N:.2f} N"
+        )
+    if max_pen > criteria.max_penetration_m:
+        reasons.append(
+            f"contact penetration {max_pen * 1e3:.3f} mm > {criteria.max_penetration_m * 1e3:.3f}"
+            f" mm: the solver did not resolve a contact, the result cannot be trusted"
+        )
+    if energy_growth:
+        reasons.append(
+            f"energy growth: part kinetic energy {ke_max:.4g} J > {ke_allow:.4g} J that the "
+            f"motion and free fall can explain"
+        )
+    return StepOutcome(
+        success=not reasons,
+        reasons=tuple(reasons),
+        warnings=warnings,
+        final_position_error_m=pos_err,
+        final_angle_error_rad=ang_err,
+        final_axial_error_m=axial_err,
+        max_slip_m=max_slip,
+        max_slip_rad=max_slip_rad,
+        dropped=dropped,
+        peak_clamp_force_N=peak_clamp,
+        clamp_force_mae_N=mae,
+        peak_insertion_force_N=peak_insert,
+        max_penetration_m=max_pen,
+        nan_detected=nan_detected,
+        energy_growth=energy_growth,
+        wall_time_s=wall_time_s,
+    )
+
+
+@dataclass(frozen=True)
+class SettleOutcome:
+    """Result of :func:`settle`: how a scene without a gripper behaved.
+
+    Attributes
+    ----------
+    stable : bool
+        No NaN, no energy growth, penetration within the bound.
+    reasons : tuple of str
+    nan_detected, energy_growth : bool
+    max_penetration_m : float
+        Deepest contact penetration of any watched body, m.
+    max_drift_m : float
+        Largest displacement of a watched body from its start position, m.
+    final_kinetic_energy_J : float
+        Sum over the watched bodies at the end, J.
+    kinetic_energy_J : (M,) float array
+        Sum over the watched bodies per tick, J.
+    """
+
+    stable: bool
+    reasons: tuple[str, ...]
+    nan_detected: bool
+    energy_growth: bool
+    max_penetration_m: float
+    max_drift_m: float
+    final_kinetic_energy_J: float
+    kinetic_energy_J: np.ndarray
+
+
+def settle(
+    world: BulletWorld,
+    bodies: Sequence[int],
+    duration_s: float,
+    max_penetration_m: float = 0.5e-3,
+) -> SettleOutcome:
+    """Step a scene without commands and watch ``bodies`` for instability.
+
+    Energy growth: the watched bodies' kinetic energy exceeds what free fall of each body by
+    its largest drop (plus 0.1 m/s) can explain.
+    """
+    n_steps = max(1, round(duration_s / world.fidelity.dt_s))
+    k = world.fidelity.record_every_steps
+    g = float(np.linalg.norm(world.gravity_mps2))
+    p0 = {b: world.pose(b)[:3, 3].copy() for b in bodies}
+    z_min = {b: p0[b][2] for b in bodies}
+    ke_hist: list[float] = []
+    max_pen = 0.0
+    max_drift = 0.0
+    nan = False
+    growth = False
+    for i in range(n_steps):
+        world.step()
+        if (i + 1) % k and i != n_steps - 1:
+            continue
+        ke_total = 0.0
+        for b in bodies:
+            p = world.pose(b)[:3, 3]
+            ke = world.kinetic_energy_J(b)
+            if not (np.all(np.isfinite(p)) and math.isfinite(ke)):
+                nan = True
+                break
+            z_min[b] = min(z_min[b], float(p[2]))
+            max_drift = max(max_drift, float(np.linalg.norm(p - p0[b])))
+            max_pen = max(max_pen, world.contacts(b).max_penetration_m())
+            v_allow = math.sqrt(2.0 * g * max(0.0, p0[b][2] - z_min[b])) + _SPEED_MARGIN_MPS
+            if ke > 2.0 * 0.5 * world.body_mass_kg(b) * v_allow**2:
+                growth = True
+            ke_total += ke
+        ke_hist.append(ke_total)
+        if nan:
+            break
+    reasons = []
+    if nan:
+        reasons.append("NaN in the simulation state")
+    if growth:
+        reasons.append("energy growth: a body moved faster than free fall can explain")
+    if max_pen > max_penetration_m:
+        reasons.append(
+            f"contact penetration {max_pen * 1e3:.3f} mm > {max_penetration_m * 1e3:.3f} mm"
+        )
+    return SettleOutcome(
+        stable=not reasons,
+        reasons=tuple(reasons),
+        nan_detected=nan,
+        energy_growth=growth,
+        max_penetration_m=max_pen,
+        max_drift_m=max_drift,
+        final_kinetic_energy_J=ke_hist[-1] if ke_hist else math.nan,
+        kinetic_energy_J=np.asarray(ke_hist),
+    )

@@ -1,0 +1,204 @@
+"""Simulation fidelity: every costly physics knob in one typed, documented object.
+
+A :class:`Fidelity` is passed explicitly to :class:`asmplan.sim.bullet.BulletWorld` and to
+:func:`asmplan.sim.execute.execute_step`. Three presets trade accuracy for cost:
+
+========== ======== ========= ========== ======= ===================================
+preset     dt_s     iters     slop (m)   cone    geometry / use
+========== ======== ========= ========== ======= ===================================
+FAST       1/240    50        1e-5       on      "coarse"; screening, gross failures
+BALANCED   1/1000   100       1e-6       on      "convex"; default
+ACCURATE   1/4000   200       1e-6       on      "exact"; tight fits, final proof
+========== ======== ========= ========== ======= ===================================
+
+``min_resolvable_clearance_m`` is the smallest DIAMETRAL clearance (hole diameter minus pin
+diameter) at which a preset still completes a straight, gripper-driven pin-in-hole insertion
+(10 mm pin, 8-sided exact hole decomposition, 30 mm deep) with the success criteria of
+:mod:`asmplan.sim.execute`. It was measured by sweeping the radial clearance over
+1, 0.5, 0.2, 0.1, 0.05, 0.025 and 0.01 mm (``tests/sim/test_presets.py``, which also checks
+the stored value still resolves) and keeping the smallest clearance that succeeded, rounded
+up to a value in that ladder. A clearance below it may be reported as jammed (or pass through
+penetration) for numerical, not physical, reasons. See docs/physics.md for the numbers.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+from asmplan.parts.pieces import LevelOfDetail
+
+_LODS = ("exact", "convex", "coarse")
+
+
+@dataclass(frozen=True)
+class Fidelity:
+    """Physics settings of one simulation run.
+
+    Parameters
+    ----------
+    name : str
+        Preset name (free text for custom settings).
+    dt_s : float
+        Physics time step, s. Use <= 1/1000 s for fits <= 0.1 mm; at 1/240 s an impact
+        penetrates ~1-2 mm and jams are missed.
+    solver_iterations : int
+        Sequential-impulse solver iterations per step (``numSolverIterations``).
+    contact_slop_m : float
+        Allowed penetration before position correction (``contactSlop``), m. 1e-6 for tight
+        fits (PyBullet's default 1e-5 lets parts sink ~10 um).
+    erp : float
+        Error reduction parameter for joints and constraints (0..1).
+    contact_erp : float
+        Error reduction parameter for contacts (0..1).
+    friction_erp : float
+        Error reduction parameter for friction anchors (0..1).
+    cone_friction : bool
+        Use the friction cone (``enableConeFriction``). PyBullet applies torsional (spinning)
+        friction ONLY with the cone on. Without torsion a two-finger grip pivots about the
+        closing axis (the solver loads one corner of the pad) and needs up to twice
+        ``m (g + a) / (2 mu)``; with the cone and the pads' torsional friction
+        (:class:`~asmplan.sim.gripper.GripperSpec`) the measured threshold is within 1 %.
+    spinning_friction : float
+        Torsional friction coefficient (m) given to parts by default; PyBullet combines it
+        as ``s_a mu_b + s_b mu_a``. 0 leaves torsion to the gripper pads.
+    collision_margin_m : float
+        Collision margin of convex-hull pieces, m. 0 keeps hulls exact (PyBullet's default of
+        1 mm inflates them and closes sub-millimetre holes). Boxes/spheres keep margins inside.
+    geometry_lod : {"exact", "convex", "coarse"}
+        Which :class:`~asmplan.parts.pieces.CollisionModel` level the caller should feed.
+    record_every_steps : int
+        Control/record tick: one record row every this many physics steps.
+    min_resolvable_clearance_m : float
+        Smallest diametral clearance this preset resolves (see the module docstring), m.
+    """
+
+    name: str
+    dt_s: float
+    solver_iterations: int
+    contact_slop_m: float
+    erp: float
+    contact_erp: float
+    friction_erp: float
+    cone_friction: bool
+    spinning_friction: float
+    collision_margin_m: float
+    geometry_lod: LevelOfDetail
+    record_every_steps: int
+    min_resolvable_clearance_m: float
+
+    def __post_init__(self) -> None:
+        def positive(label: str, value: float) -> None:
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"Fidelity.{label}: expected a finite value > 0, found {value}")
+
+        def nonneg(label: str, value: float) -> None:
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"Fidelity.{label}: expected a finite value >= 0, found {value}")
+
+        positive("dt_s", self.dt_s)
+        if self.dt_s > 0.05:
+            raise ValueError(f"Fidelity.dt_s: expected <= 0.05 s, found {self.dt_s}")
+        if int(self.solver_iterations) != self.solver_iterations or self.solver_iterations < 1:
+            raise ValueError(
+                f"Fidelity.solver_iterations: expected an integer >= 1, found "
+                f"{self.solver_iterations}"
+            )
+        nonneg("contact_slop_m", self.contact_slop_m)
+        for label in ("erp", "contact_erp", "friction_erp"):
+            v = getattr(self, label)
+            if not (0.0 <= v <= 1.0):
+                raise ValueError(f"Fidelity.{label}: expected a value in [0, 1], found {v}")
+        nonneg("spinning_friction", self.spinning_friction)
+        nonneg("collision_margin_m", self.collision_margin_m)
+        if self.geometry_lod not in _LODS:
+            raise ValueError(
+                f"Fidelity.geometry_lod: expected one of {list(_LODS)}, found "
+                f"{self.geometry_lod!r}"
+            )
+        if int(self.record_every_steps) != self.record_every_steps or self.record_every_steps < 1:
+            raise ValueError(
+                f"Fidelity.record_every_steps: expected an integer >= 1, found "
+                f"{self.record_every_steps}"
+            )
+        positive("min_resolvable_clearance_m", self.min_resolvable_clearance_m)
+
+    @property
+    def record_dt_s(self) -> float:
+        """Time between two record rows, s."""
+        return self.dt_s * self.record_every_steps
+
+    def replace(self, **changes: object) -> Fidelity:
+        """Copy with some fields changed (validated again)."""
+        known = {f.name for f in fields(self)}
+        unknown = set(changes) - known
+        if unknown:
+            raise ValueError(f"Fidelity.replace: unknown fields {sorted(unknown)}")
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        values.update(changes)
+        return Fidelity(**values)  # type: ignore[arg-type]
+
+
+FAST = Fidelity(
+    name="fast",
+    dt_s=1.0 / 240.0,
+    solver_iterations=50,
+    contact_slop_m=1e-5,
+    erp=0.2,
+    contact_erp=0.2,
+    friction_erp=0.2,
+    cone_friction=True,
+    spinning_friction=0.0,
+    collision_margin_m=0.0,
+    geometry_lod="coarse",
+    record_every_steps=1,
+    min_resolvable_clearance_m=2e-3,
+)
+
+BALANCED = Fidelity(
+    name="balanced",
+    dt_s=1.0 / 1000.0,
+    solver_iterations=100,
+    contact_slop_m=1e-6,
+    erp=0.2,
+    contact_erp=0.2,
+    friction_erp=0.2,
+    cone_friction=True,
+    spinning_friction=0.0,
+    collision_margin_m=0.0,
+    geometry_lod="convex",
+    record_every_steps=4,
+    min_resolvable_clearance_m=0.2e-3,
+)
+
+ACCURATE = Fidelity(
+    name="accurate",
+    dt_s=1.0 / 4000.0,
+    solver_iterations=200,
+    contact_slop_m=1e-6,
+    erp=0.2,
+    contact_erp=0.2,
+    friction_erp=0.2,
+    cone_friction=True,
+    spinning_friction=0.0,
+    collision_margin_m=0.0,
+    geometry_lod="exact",
+    record_every_steps=16,
+    min_resolvable_clearance_m=0.1e-3,
+)
+
+PRESETS: dict[str, Fidelity] = {f.name: f for f in (FAST, BALANCED, ACCURATE)}
+
+
+def preset(name: str) -> Fidelity:
+    """The preset called ``name`` ("fast", "balanced" or "accurate", case-insensitive).
+
+    Raises
+    ------
+    ValueError
+        For an unknown name, listing the known ones.
+    """
+    key = str(name).strip().lower()
+    if key not in PRESETS:
+        raise ValueError(f"unknown fidelity preset {name!r}; expected one of {sorted(PRESETS)}")
+    return PRESETS[key]

@@ -1,0 +1,337 @@
+"""Parallel two-finger gripper driven along a trajectory, with force-controlled fingers.
+
+Model
+-----
+* The palm is the base of one multibody whose base link frame IS the TCP frame of
+  :mod:`asmplan.planner.trajectory` (origin between the pads' contact-face centres, z toward
+  the fingertips, y the closing axis). The palm box sits behind the pads (at -z).
+* Two prismatic fingers, each a box pad. Finger 1 (link 0) sits at +y and closes along -y;
+  finger 2 (link 1) at -y closes along +y. Joint position ``q`` is the closing travel from
+  fully open: the pad's contact face is at ``|y| = max_opening_m / 2 - q``.
+* The palm follows the commanded TCP pose through a fixed constraint to the world
+  (``changeConstraint`` every step, bounded by ``pose_max_force_N``), so its velocity is
+  physical and friction carries the part. Its weight is compensated (as a robot controller
+  does) and commands lead the trajectory by :attr:`Gripper.pose_lead_s` to cancel the
+  constraint's lag.
+* Force mode: the default velocity motors are off and each finger gets the commanded
+  per-finger squeeze force as a joint force (TORQUE_CONTROL). In statics the contact normal
+  force on the part equals it.
+* Open mode: fingers are position-controlled to an opening with a bounded motor force
+  (approach, retreat, or the initial opening before the clamp).
+
+Measured clamp force of a finger = sum of the normal forces of the contact points between
+that finger's pad and the part (``getContactPoints(...)[9]``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from asmplan.parts.pieces import ConvexPiece
+from asmplan.planner.trajectory import quat_xyzw_from_matrix
+from asmplan.sim.bullet import BulletWorld, LinkSpec
+
+FINGER_LINKS: tuple[int, int] = (0, 1)
+"""PyBullet link indices of finger 1 (+y) and finger 2 (-y)."""
+
+
+@dataclass(frozen=True)
+class GripperSpec:
+    """Geometry, mass and limits of the parallel gripper.
+
+    Parameters
+    ----------
+    pad_size_m : (3,) float
+        Full pad box size along TCP (x, y, z): width, thickness (closing axis), height, m.
+    pad_friction : float
+        Lateral friction coefficient of the pads (PyBullet multiplies it with the part's).
+    pad_spinning_friction : float or None
+        Torsional friction coefficient of the pads, m. None: the mean distance of the pad's
+        contact face from its centre, so that a uniformly loaded face resists a twist with
+        ``mu N r_mean`` (PyBullet combines ``s_pad mu_part``). Without it (or without cone
+        friction, see :class:`~asmplan.sim.fidelity.Fidelity`) a grip pivots about the
+        closing axis long before it slips.
+    max_opening_m : float
+        Distance between the pads' contact faces when fully open, m.
+    finger_mass_kg, palm_mass_kg : float
+    palm_size_m : (3,) float
+        Palm box size along TCP (x, y, z), m.
+    palm_gap_m : float
+        Distance from the pads' back (wrist-side) edge to the palm's front face, m.
+    pose_max_force_N : float
+        Force bound of the constraint that drives the palm along the trajectory, N.
+    open_max_force_N : float
+        Motor force bound of each finger in open (position) mode, N.
+    max_clamp_force_N : float
+        Largest per-finger force that may be commanded, N.
+    finger_damping_Nspm : float
+        Viscous damping of each finger joint, N s/m. Force-controlled fingers and the part
+        they squeeze float together along the closing axis; without damping they keep any
+        momentum picked up at the impact and drift (mm per second). Damping acts only on
+        finger motion relative to the palm, so it does not change the static clamp force.
+    gravity_compensation : bool
+        Cancel the gripper's own weight with external forces every step (as a robot's
+        controller does), so the pose constraint does not sag and the weight does not leak
+        into the measured contact forces.
+    closing_speed_mps : float or None
+        Closing speed of each finger before both pads touch, m/s; None closes under pure
+        force control from the start (at 1/240 s the pads then hit the part fast enough to
+        penetrate it by millimetres).
+    """
+
+    pad_size_m: tuple[float, float, float] = (0.02, 0.006, 0.02)
+    pad_friction: float = 1.0
+    pad_spinning_friction: float | None = None
+    max_opening_m: float = 0.08
+    finger_mass_kg: float = 0.02
+    palm_mass_kg: float = 0.3
+    palm_size_m: tuple[float, float, float] = (0.04, 0.11, 0.02)
+    palm_gap_m: float = 0.04
+    pose_max_force_N: float = 2000.0
+    open_max_force_N: float = 20.0
+    max_clamp_force_N: float = 200.0
+    finger_damping_Nspm: float = 2.0
+    closing_speed_mps: float | None = 0.05
+    gravity_compensation: bool = True
+
+    def __post_init__(self) -> None:
+        for label in ("pad_size_m", "palm_size_m"):
+            v = np.asarray(getattr(self, label), dtype=float)
+            if v.shape != (3,) or np.any(v <= 0) or np.any(~np.isfinite(v)):
+                raise ValueError(f"GripperSpec.{label}: expected 3 positive numbers, found {v}")
+        for label in (
+            "max_opening_m",
+            "finger_mass_kg",
+            "palm_mass_kg",
+            "pose_max_force_N",
+            "open_max_force_N",
+            "max_clamp_force_N",
+        ):
+            v = getattr(self, label)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"GripperSpec.{label}: expected > 0, found {v}")
+        if self.pad_spinning_friction is not None and not (
+            math.isfinite(self.pad_spinning_friction) and self.pad_spinning_friction >= 0
+        ):
+            raise ValueError(
+                f"GripperSpec.pad_spinning_friction: expected >= 0 or None, found "
+                f"{self.pad_spinning_friction}"
+            )
+        for label in ("pad_friction", "palm_gap_m", "finger_damping_Nspm"):
+            v = getattr(self, label)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"GripperSpec.{label}: expected >= 0, found {v}")
+
+
+def pad_torsion_radius_m(width_m: float, height_m: float) -> float:
+    """Mean distance of the points of a ``width x height`` rectangle from its centre, m.
+
+    Closed form (mean of ``sqrt(x^2 + y^2)`` over the rectangle); 0.3826 a for a square of
+    side a.
+    """
+    a, b = width_m / 2.0, height_m / 2.0
+    d = math.hypot(a, b)
+    return (
+        2.0 * a * b * d + a**3 * math.log((b + d) / a) + b**3 * math.log((a + d) / b)
+    ) / (6.0 * a * b)
+
+
+def _box_inertia(mass: float, size: np.ndarray) -> tuple[float, float, float]:
+    a, b, c = size
+    return (mass * (b * b + c * c) / 12, mass * (a * a + c * c) / 12, mass * (a * a + b * b) / 12)
+
+
+class Gripper:
+    """A parallel gripper in a :class:`BulletWorld`.
+
+    Parameters
+    ----------
+    world : BulletWorld
+    spec : GripperSpec
+    T_world_tcp : (4, 4) float array
+        Initial TCP pose; the pose constraint starts there.
+    opening_m : float, optional
+        Initial distance between the pad faces (default: fully open). Fingers start in open
+        mode, position-controlled to this opening.
+    """
+
+    def __init__(
+        self,
+        world: BulletWorld,
+        spec: GripperSpec,
+        T_world_tcp: np.ndarray,
+        opening_m: float | None = None,
+    ) -> None:
+        self.world = world
+        self.spec = spec
+        pad = np.asarray(spec.pad_size_m, dtype=float)
+        palm = np.asarray(spec.palm_size_m, dtype=float)
+        half_open = spec.max_opening_m / 2.0
+        pad_piece = ConvexPiece(kind="box", T_part_piece=np.eye(4), half_extents_m=pad / 2.0)
+        palm_T = np.eye(4)
+        palm_z = -(pad[2] / 2.0 + spec.palm_gap_m + palm[2] / 2.0)
+        palm_T[2, 3] = palm_z
+        palm_piece = ConvexPiece(kind="box", T_part_piece=palm_T, half_extents_m=palm / 2.0)
+        spin = (
+            pad_torsion_radius_m(pad[0], pad[2])
+            if spec.pad_spinning_friction is None
+            else spec.pad_spinning_friction
+        )
+        links = []
+        for sign in (+1.0, -1.0):
+            T = np.eye(4)
+            T[1, 3] = sign * (half_open + pad[1] / 2.0)
+            links.append(
+                LinkSpec(
+                    name="finger1" if sign > 0 else "finger2",
+                    pieces=(pad_piece,),
+                    mass_kg=spec.finger_mass_kg,
+                    T_parent_link=T,
+                    joint="prismatic",
+                    axis=(0.0, -sign, 0.0),
+                    inertia_diag_kgm2=_box_inertia(spec.finger_mass_kg, pad),
+                    limits=(0.0, half_open),
+                    friction=spec.pad_friction,
+                    spinning_friction=spin,
+                    joint_damping=spec.finger_damping_Nspm,
+                )
+            )
+        self.body = world.add_articulated(
+            base_pieces=(palm_piece,),
+            base_mass_kg=spec.palm_mass_kg,
+            T_world_base=np.asarray(T_world_tcp, dtype=float),
+            links=links,
+            base_com_m=(0.0, 0.0, palm_z),
+            base_inertia_diag_kgm2=_box_inertia(spec.palm_mass_kg, palm),
+            name="gripper",
+        )
+        self._constraint = world.add_pose_constraint(
+            self.body, np.asarray(T_world_tcp, dtype=float), spec.pose_max_force_N
+        )
+        g = world.gravity_mps2
+        self._palm_weight_N = (-spec.palm_mass_kg * g).tolist()
+        self._finger_weight_N = (-spec.finger_mass_kg * g).tolist()
+        self._mode = "open"
+        self._touching = False
+        self._torque = False
+        q0 = self.travel_for_opening(spec.max_opening_m if opening_m is None else opening_m)
+        world.reset_joints(self.body, FINGER_LINKS, [q0, q0])
+        self.command_open(spec.max_opening_m if opening_m is None else opening_m)
+
+    # ---------------------------------------------------------------- geometry
+    def travel_for_opening(self, opening_m: float) -> float:
+        """Joint travel of each finger that leaves ``opening_m`` between the pad faces."""
+        if not (0.0 <= opening_m <= self.spec.max_opening_m):
+            raise ValueError(
+                f"opening_m: expected within [0, {self.spec.max_opening_m}], found {opening_m}"
+            )
+        return (self.spec.max_opening_m - opening_m) / 2.0
+
+    def finger_travel_m(self) -> np.ndarray:
+        """Closing travel of finger 1 and finger 2, (2,) m."""
+        return self.world.joint_positions(self.body, FINGER_LINKS)
+
+    def opening_m(self) -> float:
+        """Current distance between the pad faces, m."""
+        return float(self.spec.max_opening_m - np.sum(self.finger_travel_m()))
+
+    def tcp_pose(self) -> np.ndarray:
+        """Measured TCP (palm base frame) pose, (4, 4)."""
+        return self.world.pose(self.body)
+
+    @property
+    def pose_lead_s(self) -> float:
+        """How far ahead along a trajectory to command the pose constraint, s.
+
+        The constraint corrects a fraction ``erp`` of its error per step (PyBullet uses the
+        world's ERP for it), so a target moving at speed v is followed ``v dt (1/erp - 1)``
+        behind after the step; commanding the pose ``dt (1/erp - 1)`` ahead cancels that lag
+        (7 um at 0.2 m/s with BALANCED instead of 0.9 mm).
+        """
+        fid = self.world.fidelity
+        return fid.dt_s * (1.0 / fid.erp - 1.0) if fid.erp > 0 else 0.0
+
+    # ---------------------------------------------------------------- commands
+    def command_pose(self, T_world_tcp: np.ndarray) -> None:
+        """Move the palm's pose-constraint target to ``T_world_tcp`` (4, 4)."""
+        T = np.asarray(T_world_tcp, dtype=float)
+        self.command_pose_pq(T[:3, 3], quat_xyzw_from_matrix(T[:3, :3]))
+
+    def command_pose_pq(self, position_m: np.ndarray, quat_xyzw: np.ndarray) -> None:
+        """Move the pose-constraint target (position (3,), quaternion xyzw (4,))."""
+        self.world.move_pose_constraint(
+            self._constraint, position_m.tolist(), quat_xyzw.tolist(), self.spec.pose_max_force_N
+        )
+        if self.spec.gravity_compensation:
+            w = self.world
+            w.apply_force(self.body, -1, self._palm_weight_N, w.com_position_m(self.body))
+            for link in FINGER_LINKS:
+                w.apply_force(self.body, link, self._finger_weight_N, w.com_position_m(self.body, link))
+
+    def command_clamp_force(self, force_N: float) -> None:
+        """Force mode: each finger pushes toward the centre with ``force_N`` (>= 0), N.
+
+        Until both pads touch something, the fingers close under velocity control at
+        ``spec.closing_speed_mps`` with the motor force bounded by ``force_N`` (a real gripper
+        does not slam its fingers shut); from then on (until :meth:`command_open`) the motors
+        are off and the joints get ``force_N`` exactly (TORQUE_CONTROL).
+        """
+        if not (math.isfinite(force_N) and 0.0 <= force_N <= self.spec.max_clamp_force_N):
+            raise ValueError(
+                f"clamp force: expected within [0, {self.spec.max_clamp_force_N}] N, found {force_N}"
+            )
+        v = self.spec.closing_speed_mps
+        if v is not None and not self._touching:
+            # Closing: speed-limited, force-limited velocity control until both pads touch.
+            self._touching = all(
+                self.world.contacts(self.body, link_a=link).count > 0 for link in FINGER_LINKS
+            )
+        if v is None or self._touching:
+            if self._mode != "force" or not self._torque:
+                self.world.disable_motors(self.body, FINGER_LINKS)
+                self._torque = True
+            self.world.set_joint_forces(self.body, FINGER_LINKS, (force_N, force_N))
+        else:
+            self.world.set_joint_velocity_targets(
+                self.body, FINGER_LINKS, (v, v), (force_N, force_N)
+            )
+            self._torque = False
+        self._mode = "force"
+
+    def command_open(self, opening_m: float | None = None) -> None:
+        """Open mode: position-control both fingers to ``opening_m`` (default fully open)."""
+        q = self.travel_for_opening(self.spec.max_opening_m if opening_m is None else opening_m)
+        if self._mode == "force":
+            self.world.set_joint_forces(self.body, FINGER_LINKS, (0.0, 0.0))
+        self.world.set_joint_position_targets(
+            self.body,
+            FINGER_LINKS,
+            (q, q),
+            (self.spec.open_max_force_N, self.spec.open_max_force_N),
+            position_gain=0.2,
+            velocity_gain=1.0,
+        )
+        self._mode = "open"
+        self._touching = False
+        self._torque = False
+
+    @property
+    def mode(self) -> str:
+        """"force" or "open"."""
+        return self._mode
+
+    # ---------------------------------------------------------------- measurement
+    def clamp_forces_N(self, part_body: int) -> np.ndarray:
+        """Measured clamp force of finger 1 and finger 2 on ``part_body``, (2,) N.
+
+        Sum of the normal forces of the contact points between each pad and the part.
+        """
+        return np.array(
+            [
+                self.world.contacts(self.body, part_body, link_a=link).normal_force_sum_N()
+                for link in FINGER_LINKS
+            ]
+        )
