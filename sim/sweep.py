@@ -652,9 +652,25 @@ def _is_worker_death(exc: BaseException) -> bool:
     return any(c.__name__ == "KilledWorker" for c in type(exc).__mro__)
 
 
+_TB_LINE = re.compile(r'File "([^"]+)", line (\d+)')
+
+
 def _describe(exc: BaseException) -> str:
-    tb = traceback.extract_tb(exc.__traceback__)
-    where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno})" if tb else ""
+    """``"Type: message (at file.py:line)"`` with the line where the task raised.
+
+    A process pool attaches the worker's traceback as text in ``__cause__``; Dask rebuilds
+    the remote frames in ``__traceback__``.
+    """
+    where = ""
+    cause = exc.__cause__
+    if cause is not None and type(cause).__name__ == "_RemoteTraceback":
+        found = _TB_LINE.findall(str(cause))
+        if found:
+            where = f" (at {Path(found[-1][0]).name}:{found[-1][1]})"
+    if not where:
+        tb = traceback.extract_tb(exc.__traceback__)
+        if tb:
+            where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno})"
     return f"{type(exc).__name__}: {exc}{where}"
 
 

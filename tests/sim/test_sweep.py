@@ -247,7 +247,7 @@ def test_a_task_that_raises_is_a_failed_result_not_a_crash() -> None:
     results = sw.run_sweep(raise_on_three, list(range(6)), max_workers=2)
     assert [r.ok for r in results] == [True, True, True, False, True, True]
     assert results[3].error is not None
-    assert "ValueError: three is not allowed" in results[3].error
+    assert "ValueError: three is not allowed (at test_sweep.py:" in results[3].error
     assert results[3].attempts == 1  # not retried: a deterministic task raises again
     bad = sw.run_sweep(float, [float("nan")], executor=ThreadPoolExecutor(1))
     assert not bad[0].ok and "not JSON-safe" in (bad[0].error or "")
