@@ -1,0 +1,235 @@
+"""Read a part's mesh file (STL, OBJ, PLY, OFF, GLB; STEP with the optional ``cascadio``).
+
+Every step is bounded in time and says what it did:
+
+1. **Size gate, before reading.** Files over ``max_mesh_file_bytes`` are refused. The triangle
+   count is read from the header where the format has one (binary STL, PLY, OFF) or counted
+   on the raw bytes (ASCII STL ``facet``, OBJ ``f`` lines, a linear scan); over
+   ``hard_max_triangles`` the file is refused without being parsed.
+2. **Read** with trimesh (no processing), scale to metres. STEP comes through cascadio already
+   in metres (its own units are converted), so the YAML ``units`` are NOT applied to it.
+3. **Safe repair** only: merge duplicate vertices, drop degenerate and duplicate faces, make
+   the winding consistent and the normals point outwards, fill holes of three or four edges.
+   Nothing that moves a surface.
+4. **Checks**: still not watertight -> :class:`MeshFileError` with the number of open edges;
+   zero (or negative) volume -> :class:`MeshFileError` (a flat sheet or an empty file).
+5. **Huge meshes** (more than ``max_triangles`` faces, 200 000 by default) are simplified with
+   manifold3d's ``simplify`` (edge collapse within a tolerance that starts at 1e-5 of the
+   bounding-box diagonal and grows 4x per round, at most 6 rounds), and the result is
+   re-checked; a note records the tolerance used and the triangle counts. A mesh that is not
+   an oriented 2-manifold cannot be simplified safely and gets a :class:`MeshFileError` naming
+   the count and the limit.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .geometry import GeometrySettings, manifold_to_trimesh, trimesh_to_manifold
+
+
+class MeshFileError(ValueError):
+    """A mesh file cannot be used; ``path`` and ``reason`` say which and why."""
+
+    def __init__(self, path: Path | str, reason: str):
+        self.path = Path(path)
+        self.reason = reason
+        super().__init__(f"{self.path.name}: {reason}")
+
+
+@dataclass(frozen=True, eq=False)
+class LoadedMesh:
+    """A watertight mesh in metres with what was done to it.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        Watertight, outward normals, metres, the file's own frame.
+    source_triangles : int
+        Triangle count as read.
+    notes : tuple of str
+        Repairs, unit decisions and simplifications applied.
+    """
+
+    mesh: object
+    source_triangles: int
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+_STEP_SUFFIXES = (".step", ".stp")
+
+
+def count_triangles(path: Path) -> int | None:
+    """Triangle (face) count from the file without parsing it, or None when unknown.
+
+    Binary STL: the header's count. ASCII STL: ``facet`` keywords. OBJ: ``f`` lines (a polygon
+    counts once). PLY and OFF: the header's face element count.
+    """
+    suffix = path.suffix.lower()
+    size = path.stat().st_size
+    with path.open("rb") as fh:
+        head = fh.read(4096)
+    if suffix == ".stl":
+        if len(head) >= 84:
+            n = int(np.frombuffer(head[80:84], dtype="<u4")[0])
+            if 84 + 50 * n == size:
+                return n
+        return path.read_bytes().count(b"facet normal") or None
+    if suffix == ".obj":
+        data = path.read_bytes()
+        return data.count(b"\nf ") + (1 if data.startswith(b"f ") else 0)
+    if suffix == ".ply":
+        m = re.search(rb"element\s+face\s+(\d+)", head)
+        return int(m.group(1)) if m else None
+    if suffix == ".off":
+        lines = [ln for ln in head.split(b"\n") if ln.strip() and not ln.startswith(b"#")]
+        if lines and lines[0].strip().upper().startswith(b"OFF"):
+            rest = lines[0].strip()[3:].split() or (lines[1].split() if len(lines) > 1 else [])
+            if len(rest) >= 2:
+                return int(rest[1])
+        return None
+    return None
+
+
+def _read(path: Path):
+    import trimesh
+
+    suffix = path.suffix.lower()
+    if suffix in _STEP_SUFFIXES:
+        try:
+            import cascadio  # noqa: F401  (registers the STEP loader with trimesh)
+        except ImportError:
+            raise MeshFileError(path, "reading STEP needs the optional extra: pip install "
+                                "'asmplan[step]' (cascadio)") from None
+    try:
+        loaded = trimesh.load(str(path), force="mesh", process=False)
+    except Exception as exc:  # trimesh raises many types on malformed files
+        raise MeshFileError(path, f"cannot read the file as {suffix[1:].upper()}: "
+                            f"{type(exc).__name__}: {exc}") from None
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        raise MeshFileError(path, "expected a triangle mesh, found no triangles")
+    return loaded
+
+
+def _repair(mesh) -> list[str]:
+    import trimesh
+
+    notes = []
+    n_v, n_f = len(mesh.vertices), len(mesh.faces)
+    mesh.merge_vertices()
+    keep = mesh.nondegenerate_faces() & mesh.unique_faces()
+    if not keep.all():
+        mesh.update_faces(keep)
+        mesh.remove_unreferenced_vertices()
+    if len(mesh.vertices) != n_v or len(mesh.faces) != n_f:
+        notes.append(f"merged duplicate vertices and dropped degenerate/duplicate faces: "
+                     f"{n_v} -> {len(mesh.vertices)} vertices, {n_f} -> {len(mesh.faces)} faces")
+    if not mesh.is_watertight:
+        before = len(mesh.faces)
+        trimesh.repair.fill_holes(mesh)
+        if len(mesh.faces) != before:
+            notes.append(f"filled small holes with {len(mesh.faces) - before} triangles")
+    if mesh.is_watertight:
+        trimesh.repair.fix_normals(mesh)
+    return notes
+
+
+def _open_edges(mesh) -> int:
+    import trimesh
+
+    groups = trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1)
+    return len(groups)
+
+
+def load_mesh_file(path: Path | str, scale: float = 1.0,
+                   settings: GeometrySettings | None = None) -> LoadedMesh:
+    """Read, scale, repair and check a mesh file (see the module docstring).
+
+    Parameters
+    ----------
+    path : path to the file.
+    scale : float
+        File units to metres (ignored for STEP, which carries its own units).
+    settings : GeometrySettings, optional
+        Size limits.
+
+    Returns
+    -------
+    LoadedMesh
+
+    Raises
+    ------
+    MeshFileError
+        Missing, unreadable, too large, not watertight after safe repair, or zero volume.
+    """
+    settings = settings or GeometrySettings()
+    path = Path(path)
+    if not path.is_file():
+        raise MeshFileError(path, "file not found")
+    size = path.stat().st_size
+    if size > settings.max_mesh_file_bytes:
+        raise MeshFileError(path, f"file is {size / 1e6:.0f} MB, over the limit of "
+                            f"{settings.max_mesh_file_bytes / 1e6:.0f} MB; simplify it first")
+    counted = count_triangles(path)
+    if counted is not None and counted > settings.hard_max_triangles:
+        raise MeshFileError(path, f"{counted:,} triangles, over the hard limit of "
+                            f"{settings.hard_max_triangles:,} (and the simplification limit "
+                            f"{settings.max_triangles:,}); simplify it before use")
+    mesh = _read(path)
+    notes: list[str] = []
+    n_read = len(mesh.faces)
+    if n_read > settings.hard_max_triangles:
+        raise MeshFileError(path, f"{n_read:,} triangles, over the hard limit of "
+                            f"{settings.hard_max_triangles:,}; simplify it before use")
+    if path.suffix.lower() in _STEP_SUFFIXES:
+        notes.append("STEP read through cascadio in metres; the YAML units are not applied")
+    elif scale != 1.0:
+        mesh.apply_scale(scale)
+        notes.append(f"scaled by {scale:g} to metres")
+    if not np.all(np.isfinite(mesh.vertices)):
+        raise MeshFileError(path, "expected finite vertex coordinates, found NaN or infinity")
+    notes += _repair(mesh)
+    if not mesh.is_watertight:
+        raise MeshFileError(path, f"not watertight after safe repair ({_open_edges(mesh):,} open "
+                            "edges; only holes of 3-4 edges are filled): close the surface in a CAD or "
+                            "mesh tool")
+    extent = mesh.bounding_box.extents
+    volume = float(mesh.volume)
+    if not volume > 1e-9 * float(np.prod(np.maximum(extent, 1e-300))) or volume <= 0:
+        raise MeshFileError(path, f"zero volume ({volume:.3g} m^3 inside a bounding box of "
+                            f"{' x '.join(f'{e * 1e3:.3g}' for e in extent)} mm): a flat or "
+                            "inside-out surface is not a solid")
+    if len(mesh.faces) > settings.max_triangles:
+        mesh, note = _simplify(path, mesh, settings.max_triangles)
+        notes.append(note)
+    if float(np.max(extent)) > 10.0 or float(np.max(extent)) < 1e-4:
+        notes.append(f"the part is {np.max(extent) * 1e3:.3g} mm across: check the units")
+    return LoadedMesh(mesh, n_read, tuple(notes))
+
+
+def _simplify(path: Path, mesh, limit: int):
+    n = len(mesh.faces)
+    try:
+        solid = trimesh_to_manifold(mesh)
+    except ValueError as exc:
+        raise MeshFileError(path, f"{n:,} triangles, over the limit of {limit:,}, and it cannot "
+                            f"be simplified safely: {exc}") from None
+    diag = float(np.linalg.norm(mesh.bounding_box.extents))
+    tol = 1e-5 * diag
+    for _ in range(6):
+        small = solid.simplify(tol)
+        if small.num_tri() <= limit:
+            out = manifold_to_trimesh(small)
+            if out.is_watertight and out.volume > 0:
+                return out, (f"simplified from {n:,} to {len(out.faces):,} triangles (limit "
+                             f"{limit:,}) by edge collapse within {tol * 1e3:.3g} mm")
+        tol *= 4.0
+    raise MeshFileError(path, f"{n:,} triangles, over the limit of {limit:,}; simplification "
+                        f"within {tol / 4 * 1e3:.3g} mm still left {small.num_tri():,}")
+
+
+__all__ = ["LoadedMesh", "MeshFileError", "count_triangles", "load_mesh_file"]

@@ -1,0 +1,261 @@
+"""One cache of everything geometric about a product: :class:`ProductGeometry`.
+
+The planner, the simulator and the checks share one ``ProductGeometry(product)``; every
+quantity is computed on first use, per part, and kept: the part's shape at fitted sizes, its
+exact solid and mesh, mass properties, feature frames and depths, the collision model at each
+level of detail with its measured error, and the FCL geometries (BVH trees are built once).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable, Mapping
+from functools import cached_property
+
+import numpy as np
+
+from ..knowledge.errors import InputIssue, ProductError
+from ..knowledge.model import Feature, Part, Product
+from .collision import CollisionWorld, FclShapes
+from .features import Finding, T_part_feature, check_feature, feature_depth
+from .geometry import (
+    FeatureSizing,
+    GeometryError,
+    GeometrySettings,
+    HoleShape,
+    MassProperties,
+    PartShape,
+    fitted_sizes,
+    manifold_to_trimesh,
+    mass_properties,
+    part_shape,
+    shape_solid,
+    trimesh_to_manifold,
+)
+from .lod import (
+    LEVELS,
+    HoleSides,
+    LevelReport,
+    bodies,
+    coarse_pieces,
+    convex_pieces,
+    exact_model,
+    hole_sides,
+    measure,
+    with_errors,
+)
+from .meshfile import LoadedMesh, MeshFileError, load_mesh_file
+from .pieces import CollisionModel, ConvexPiece, LevelOfDetail
+
+
+class ProductGeometry:
+    """Lazily computed, cached geometry of every part of ``product``.
+
+    Parameters
+    ----------
+    product : Product
+    settings : GeometrySettings, optional
+
+    Raises
+    ------
+    ProductError
+        (from the accessors) when a part's mesh file cannot be used; the issue points at the
+        part's ``geometry.file`` in the product file.
+    """
+
+    def __init__(self, product: Product, settings: GeometrySettings | None = None):
+        self.product = product
+        self.settings = settings or GeometrySettings()
+        self.fcl_shapes = FclShapes()
+        self._cache: dict[tuple[str, str], object] = {}
+        self.timings_s: dict[str, float] = {}
+
+    # -- plumbing -------------------------------------------------------------------------------
+    def _get(self, kind: str, part: str, make):
+        key = (kind, part)
+        if key not in self._cache:
+            t = time.perf_counter()
+            self._cache[key] = make()
+            self.timings_s[kind] = self.timings_s.get(kind, 0.0) + time.perf_counter() - t
+        return self._cache[key]
+
+    def _part(self, name: str) -> Part:
+        return self.product.part(name)
+
+    @cached_property
+    def sizing(self) -> FeatureSizing:
+        """Fitted diameters of all mated features."""
+        return fitted_sizes(self.product)
+
+    def _input_error(self, part: str, message: str) -> ProductError:
+        idx = self.product.part_names.index(part)
+        path = ("parts", idx, "geometry", "file")
+        try:
+            from ..knowledge.yamlsource import load_located
+
+            return ProductError([load_located(self.product.source).issue(path, message)])
+        except ProductError:
+            return ProductError([InputIssue(str(self.product.source), 0, 0, f"parts[{idx}].geometry.file",
+                                            message)])
+
+    # -- solids ---------------------------------------------------------------------------------
+    def shape(self, part: str) -> PartShape:
+        return self._get("shape", part, lambda: part_shape(self._part(part), self.sizing))
+
+    def loaded_mesh(self, part: str) -> LoadedMesh:
+        """The repaired mesh of a mesh-file part (raises ProductError when unusable)."""
+        def make() -> LoadedMesh:
+            g = self._part(part).geometry
+            try:
+                return load_mesh_file(g.mesh_file, g.mesh_scale, self.settings)
+            except MeshFileError as exc:
+                raise self._input_error(part, f"mesh file {exc}") from None
+        return self._get("mesh_file", part, make)
+
+    def solid(self, part: str):
+        """The exact manifold3d solid (part frame), pins included."""
+        def make():
+            sh = self.shape(part)
+            if sh.is_mesh:
+                try:
+                    return trimesh_to_manifold(self.loaded_mesh(part).mesh)
+                except ValueError as exc:
+                    raise self._input_error(part, f"mesh file: {exc}") from None
+            return shape_solid(sh, self.settings.exact_tolerance_m)
+        return self._get("solid", part, make)
+
+    def _solid_without_pins(self, part: str):
+        def make():
+            sh = self.shape(part)
+            if not sh.pins:
+                return self.solid(part)
+            return shape_solid(sh, self.settings.exact_tolerance_m, with_pins=False)
+        return self._get("solid_np", part, make)
+
+    def mesh(self, part: str):
+        """The exact watertight trimesh of the part (part frame, metres)."""
+        def make():
+            if self.shape(part).is_mesh:
+                return self.loaded_mesh(part).mesh
+            return manifold_to_trimesh(self.solid(part))
+        return self._get("mesh", part, make)
+
+    def mass_properties(self, part: str) -> MassProperties:
+        return self._get("mass", part, lambda: mass_properties(self._part(part), self.mesh(part)))
+
+    # -- features -------------------------------------------------------------------------------
+    def feature_frames(self, part: str) -> Mapping[str, np.ndarray]:
+        """``{feature: T_part_feature (4, 4)}``."""
+        features = self._part(part).features
+        return self._get("frames", part, lambda: {f.name: T_part_feature(f) for f in features})
+
+    def feature_depth(self, feature: Feature) -> float:
+        """Hole depth or pin length (m); through holes measured on the solid."""
+        key = f"{feature.part}.{feature.name}"
+        return self._get("depth", key, lambda: feature_depth(self.solid(feature.part), feature,
+                                                             self.sizing.diameter(feature)))
+
+    def feature_findings(self, part: str) -> tuple[Finding, ...]:
+        """Material probes of every feature of ``part`` against its solid."""
+        def make():
+            out: list[Finding] = []
+            solid = self.solid(part)
+            for f in self._part(part).features:
+                out += check_feature(solid, f, self.feature_depth(f), self.sizing.diameter(f))
+            return tuple(out)
+        return self._get("feature_findings", part, make)
+
+    def holes(self, part: str) -> tuple[HoleShape, ...]:
+        """Holes as cut (primitive parts) or as declared (mesh parts), for measurements."""
+        def make():
+            sh = self.shape(part)
+            if not sh.is_mesh:
+                return sh.holes
+            out = []
+            for f in self._part(part).features:
+                if not f.is_male:
+                    out.append(HoleShape(f.name, T_part_feature(f), 0.5 * self.sizing.diameter(f),
+                                         self.feature_depth(f), f.through, f.chamfer_m))
+            return tuple(out)
+        return self._get("holes", part, make)
+
+    def hole_sides(self, part: str) -> dict[str, HoleSides]:
+        rc = {k[1]: v for k, v in self.sizing.radial_clearance_m.items() if k[0] == part}
+        sh = self.shape(part)
+        probe = PartShape(sh.part, sh.bodies, self.holes(part), sh.pins, sh.is_mesh)
+        return self._get("sides", part, lambda: hole_sides(probe, rc, self.settings))
+
+    # -- collision models -----------------------------------------------------------------------
+    def _raw_model(self, part: str, level: LevelOfDetail) -> CollisionModel:
+        def make() -> CollisionModel:
+            sh = self.shape(part)
+            mesh = self.mesh(part) if sh.is_mesh else None
+            if level == "exact":
+                solid = None if sh.is_mesh or not sh.holes else self._solid_without_pins(part)
+                return exact_model(sh, self.settings, solid, mesh)
+            pieces, notes = convex_pieces(sh, self.hole_sides(part) if not sh.is_mesh else {},
+                                          self.settings, mesh)
+            if level == "convex":
+                return CollisionModel("convex", pieces, notes=notes)
+            return CollisionModel("coarse", coarse_pieces(sh, pieces, self.settings, mesh),
+                                  notes=("one convex hull (holes filled)",))
+        return self._get(f"raw_{level}", part, make)
+
+    def level_report(self, part: str, level: LevelOfDetail) -> LevelReport:
+        """How far ``part``'s model at ``level`` is from the exact geometry (measured for
+        convex and coarse; the analytic polygon bound for exact)."""
+        if level not in LEVELS:
+            raise ValueError(f"level: expected one of {', '.join(LEVELS)}, found {level!r}")
+
+        def make() -> LevelReport:
+            model = self._raw_model(part, level)
+            if level == "exact":
+                return LevelReport("exact", len(model.pieces) + (model.mesh_faces is not None),
+                                   model.hausdorff_m, False, (), model.notes)
+            spans = {}
+            for h in self.holes(part):
+                d = self.feature_depth(self._part(part).feature(h.feature))
+                if d > 0:
+                    spans[h.feature] = (-0.75 * d, -0.25 * d)
+            sides = self.hole_sides(part)
+            return measure(model, level, self.solid(part), self.holes(part), sides, self.settings, spans)
+        return self._get(f"report_{level}", part, make)
+
+    def collision_model(self, part: str, level: LevelOfDetail = "convex") -> CollisionModel:
+        """``part``'s collision model at ``level`` carrying its measured error."""
+        if level not in LEVELS:
+            raise ValueError(f"level: expected one of {', '.join(LEVELS)}, found {level!r}")
+        if level == "exact":
+            return self._raw_model(part, "exact")
+        return self._get(f"model_{level}", part,
+                         lambda: with_errors(self._raw_model(part, level), self.level_report(part, level)))
+
+    def bodies(self, part: str, level: LevelOfDetail = "convex") -> tuple[tuple[ConvexPiece, ...], ...]:
+        """The level's pieces in groups of at most ``settings.max_pieces_per_body``."""
+        return bodies(self.collision_model(part, level), self.settings.max_pieces_per_body)
+
+    def collision_world(self, level: LevelOfDetail = "convex",
+                        poses: Mapping[str, np.ndarray] | None = None,
+                        parts: Iterable[str] | None = None) -> CollisionWorld:
+        """A new world with ``parts`` (default all) at ``poses`` (default: assembled poses).
+
+        The world shares this object's FCL geometry cache.
+        """
+        world = CollisionWorld(self.fcl_shapes)
+        names = list(parts) if parts is not None else list(self.product.part_names)
+        for name in names:
+            T = poses[name] if poses is not None and name in poses else self.product.T_world_assembled(name)
+            world.add(name, self.collision_model(name, level), T)
+        return world
+
+    def build(self, level: LevelOfDetail = "exact") -> dict[str, float]:
+        """Compute every part's model at ``level`` now; returns seconds per stage."""
+        for name in self.product.part_names:
+            try:
+                self.collision_model(name, level)
+            except GeometryError as exc:
+                raise self._input_error(name, str(exc)) from None
+        return dict(self.timings_s)
+
+
+__all__ = ["ProductGeometry"]
