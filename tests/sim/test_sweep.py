@@ -277,6 +277,19 @@ def test_a_sample_that_keeps_killing_its_worker_is_recorded_after_retries() -> N
     assert strict[2].error is not None and "worker died 1 time running" in strict[2].error
 
 
+@pytest.mark.slow
+def test_a_callers_broken_pool_stops_the_sweep_with_the_finished_samples_journalled(tmp_path: Path) -> None:
+    spec = sw.SweepSpec(n_samples=6)
+    ex = sw.default_executor(1)
+    seen: list[int] = []
+    with sw.SweepJournal(tmp_path / sw.JOURNAL_NAME, sw.journal_header(spec, "die")) as j:
+        with pytest.raises(sw.ExecutorBrokenError, match=r"the executor broke .*journalled; resume"):
+            sw.run_sweep(die_always, list(range(6)), executor=ex, journal=j, max_in_flight=1,
+                         progress=lambda done, total, r: seen.append(r.index))
+        assert sorted(j.finished) == [0, 1] == seen
+    ex.shutdown()
+
+
 # --- journal and resume -----------------------------------------------------------------------
 class CountingTask:
     """In-process task (threads) that records which samples ran."""
