@@ -10,7 +10,9 @@ error bound for that hole (``measured_within``).
 Every pair of parts is then tested for contact deeper than ``tolerance_m``; a contact between
 the two parts of an interference or transition mate is expected up to half the declared
 interference (plus the bound) and is listed as ``intended``; anything else is an
-interference, with the pair, the depth and the point.
+interference, with the pair, the point, FCL's deepest local contact depth, and as ``depth_m``
+the smallest translation along a world axis that separates the two parts (the overlap of a
+part placed too low, for instance).
 
 A failed check is a result (``AssemblyCheck.success`` False with the reason), not an exception.
 """
@@ -62,6 +64,8 @@ class Interference:
     depth_m: float
     point_m: np.ndarray
     intended_by: str | None = None
+    contact_depth_m: float = 0.0
+    separate_along: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,7 +111,8 @@ class AssemblyCheck:
                        "declared_min_m": m.declared_min_m, "declared_max_m": m.declared_max_m,
                        "built_m": m.built_m, "measured_m": m.measured_m, "bound_m": m.bound_m,
                        "within": m.measured_within} for m in self.mates],
-            "interferences": [{"a": i.a, "b": i.b, "depth_m": i.depth_m, "point_m": i.point_m.tolist()}
+            "interferences": [{"a": i.a, "b": i.b, "depth_m": i.depth_m, "point_m": i.point_m.tolist(),
+                               "contact_depth_m": i.contact_depth_m, "separate_along": list(i.separate_along)}
                               for i in self.interferences],
             "intended_contacts": [{"a": i.a, "b": i.b, "depth_m": i.depth_m, "mate": i.intended_by}
                                   for i in self.intended_contacts],
@@ -196,9 +201,13 @@ def check_assembly(product: Product, geometry: ProductGeometry | None = None, le
     for c in world.contacts(tolerance_m=tolerance_m):
         ok = allowed.get((c.a, c.b))
         if ok is not None and c.depth_m <= ok[1]:
-            intended.append(Interference(c.a, c.b, c.depth_m, c.point_m, ok[0]))
+            intended.append(Interference(c.a, c.b, c.depth_m, c.point_m, ok[0], c.depth_m))
         else:
-            interferences.append(Interference(c.a, c.b, c.depth_m, c.point_m))
+            # report how far one part must move to clear the other (FCL's per-triangle depth
+            # against a BVH is a local figure, not the overlap of the solids)
+            sep, u = world.separation(c.a, c.b, tolerance_m)
+            interferences.append(Interference(c.a, c.b, sep, c.point_m, None, c.depth_m,
+                                              tuple(float(x) for x in u)))
     t4 = time.perf_counter()
     findings: list[Finding] = []
     for name in product.part_names:

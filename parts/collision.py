@@ -317,6 +317,45 @@ class CollisionWorld:
             return self._containment(ea, eb) or self._containment(eb, ea)
         return None
 
+    def separation(self, a: str, b: str, tolerance_m: float = 1e-6,
+                   directions: Sequence[Sequence[float]] | None = None) -> tuple[float, np.ndarray]:
+        """Smallest translation of ``a`` along one of ``directions`` (default: the six world
+        axis directions) after which ``a`` and ``b`` overlap by at most ``tolerance_m``.
+
+        An upper bound of the penetration depth, exact for two parts overlapping across a
+        face along an axis (a part placed too low). Bisection on collision, to 1 nm.
+        Returns the distance (m, 0 when they do not overlap) and the direction (3,).
+        """
+        ea, eb = self._entry(a), self._entry(b)
+        dirs = np.eye(3).tolist() + (-np.eye(3)).tolist() if directions is None else directions
+        T0 = ea.T.copy()
+        reach = float(np.max(ea.bbox[1] - ea.bbox[0]) + np.max(eb.bbox[1] - eb.bbox[0])) + 1e-3
+        best, best_dir = math.inf, np.zeros(3)
+        try:
+            if not self.in_collision(a, (b,), tolerance_m):
+                return 0.0, best_dir
+            for d in dirs:
+                u = np.asarray(d, dtype=float) / np.linalg.norm(d)
+                lo, hi = 0.0, min(reach, best)
+                T = T0.copy()
+                T[:3, 3] = T0[:3, 3] + hi * u
+                ea.set_pose(T)
+                if self.in_collision(a, (b,), tolerance_m):
+                    continue
+                while hi - lo > 1e-9:
+                    mid = 0.5 * (lo + hi)
+                    T[:3, 3] = T0[:3, 3] + mid * u
+                    ea.set_pose(T)
+                    if self.in_collision(a, (b,), tolerance_m):
+                        lo = mid
+                    else:
+                        hi = mid
+                if hi < best:
+                    best, best_dir = hi, u
+        finally:
+            ea.set_pose(T0)
+        return (best if math.isfinite(best) else reach), best_dir
+
     def _containment(self, inner: _Entry, outer: _Entry) -> Contact | None:
         """Contact when ``inner`` lies wholly inside ``outer``'s BVH solid (no surface met):
         then any point of ``inner``'s material is inside ``outer``; one is tested."""

@@ -501,6 +501,60 @@ def _bsp_pieces(body: BodyShape, holes: list[HoleShape], sides: dict[str, HoleSi
     return [_hull_piece(p, f"{name}/bsp{i}") for i, p in enumerate(pieces)]
 
 
+def _mesh_sector_pieces(mesh, holes: list[HoleShape], sides: dict[str, HoleSides]) -> tuple[ConvexPiece, ...]:
+    """Convex pieces of a mesh solid with declared holes along parallel axes.
+
+    Space is split into one prism per hole (the Voronoi cells of the hole axes), each cell into
+    ``n`` wedges around its hole, each wedge cut by the plane of its polygon face (inscribed
+    radius = the hole radius) and, for a blind hole, by the plane of its floor (the floor
+    below is one more piece). Every piece of the mesh is replaced by its convex hull, which
+    stays inside those planes: the holes keep exactly their polygon; outer concavities of the
+    mesh within a sector are filled.
+    """
+    from .geometry import trimesh_to_manifold
+
+    solid = trimesh_to_manifold(mesh)
+    axis = holes[0].T_part_hole[:3, 2]
+    if any(abs(abs(float(h.T_part_hole[:3, 2] @ axis)) - 1.0) > 1e-9 for h in holes):
+        raise _Unsupported("declared holes are not parallel")
+    centres = [h.T_part_hole[:3, 3] - float(h.T_part_hole[:3, 3] @ axis) * axis for h in holes]
+    out: list[ConvexPiece] = []
+    for i, h in enumerate(holes):
+        cell = solid
+        for j, cj in enumerate(centres):
+            if j != i:  # keep the half-space nearer to axis i
+                nrm = centres[i] - cj
+                cell = cell.trim_by_plane(list(nrm / np.linalg.norm(nrm)),
+                                          float(nrm @ (0.5 * (centres[i] + cj)) / np.linalg.norm(nrm)))
+        n = sides[h.feature].n_sides
+        Rh = h.T_part_hole[:3, :3]
+        o = h.T_part_hole[:3, 3]
+        ring = cell
+        if not h.through:
+            floor = o - h.depth_m * Rh[:, 2]
+            below, ring = cell.trim_by_plane(list(-Rh[:, 2]), float(-Rh[:, 2] @ floor)), \
+                cell.trim_by_plane(list(Rh[:, 2]), float(Rh[:, 2] @ floor))
+            if not below.is_empty() and below.volume() > 1e-15:
+                out.append(_hull_piece(_manifold_points(below), f"hole{i}/floor"))
+        for k in range(n):
+            phi = 2.0 * math.pi * k / n
+            a0, a1 = phi - math.pi / n, phi + math.pi / n
+            # counter-clockwise of ray a0, clockwise of ray a1, outside face k
+            n0 = Rh @ np.array([-math.sin(a0), math.cos(a0), 0.0])
+            n1 = Rh @ np.array([math.sin(a1), -math.cos(a1), 0.0])
+            nf = Rh @ np.array([math.cos(phi), math.sin(phi), 0.0])
+            piece = ring.trim_by_plane(list(n0), float(n0 @ o)).trim_by_plane(list(n1), float(n1 @ o))
+            piece = piece.trim_by_plane(list(nf), float(nf @ o + h.radius_m))
+            if piece.is_empty() or piece.volume() <= 1e-15:
+                continue
+            out.append(_hull_piece(_manifold_points(piece), f"hole{i}/side{k}"))
+    return tuple(out)
+
+
+def _manifold_points(solid) -> np.ndarray:
+    return np.asarray(solid.to_mesh64().vert_properties, dtype=float)[:, :3]
+
+
 def _holes_touching(body: BodyShape, holes: tuple[HoleShape, ...], tol_m: float) -> list[HoleShape]:
     from .geometry import body_solid, hole_solid
 
@@ -587,11 +641,22 @@ def exact_model(shape: PartShape, settings: GeometrySettings, solid_without_pins
 
 
 def convex_pieces(shape: PartShape, sides: dict[str, HoleSides], settings: GeometrySettings,
-                  mesh=None) -> tuple[tuple[ConvexPiece, ...], tuple[str, ...]]:
-    """Convex pieces of the part (see the module docstring) and notes on how they were made."""
+                  mesh=None, mesh_holes: tuple[HoleShape, ...] = ()
+                  ) -> tuple[tuple[ConvexPiece, ...], tuple[str, ...]]:
+    """Convex pieces of the part (see the module docstring) and notes on how they were made.
+
+    ``mesh`` and ``mesh_holes`` (its declared holes) are for mesh-file parts."""
     tol = settings.convex_arc_tolerance_m
     notes: list[str] = []
     if shape.is_mesh:
+        if mesh_holes:
+            try:
+                pieces = _mesh_sector_pieces(mesh, list(mesh_holes), sides)
+                notes.append(f"mesh part: sectors around {len(mesh_holes)} declared hole(s), each sector's "
+                             "convex hull (outer concavities filled, holes kept as inscribed polygons)")
+                return pieces, tuple(notes)
+            except _Unsupported as why:
+                notes.append(f"mesh part: holes not decomposed ({why})")
         hull = mesh.convex_hull
         excess = float(hull.volume / mesh.volume - 1.0)
         notes.append("mesh part: its convex hull" + (

@@ -193,8 +193,8 @@ class ProductGeometry:
             if level == "exact":
                 solid = None if sh.is_mesh or not sh.holes else self._solid_without_pins(part)
                 return exact_model(sh, self.settings, solid, mesh)
-            pieces, notes = convex_pieces(sh, self.hole_sides(part) if not sh.is_mesh else {},
-                                          self.settings, mesh)
+            pieces, notes = convex_pieces(sh, self.hole_sides(part), self.settings, mesh,
+                                          self.holes(part) if sh.is_mesh else ())
             if level == "convex":
                 return CollisionModel("convex", pieces, notes=notes)
             return CollisionModel("coarse", coarse_pieces(sh, pieces, self.settings, mesh),

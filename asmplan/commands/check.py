@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 import json
 
+import numpy as np
+
 from ..knowledge.loader import load_product
 from ..parts.check import AssemblyCheck, check_assembly
 from ..parts.lod import LEVELS
@@ -51,7 +53,10 @@ def render(result: AssemblyCheck) -> str:
     if result.interferences:
         for i in result.interferences:
             p = ", ".join(f"{v * 1e3:.2f}" for v in i.point_m)
-            lines.append(f"  INTERFERENCE {i.a} / {i.b}: depth {i.depth_m * 1e3:.4g} mm at ({p}) mm")
+            axis = "xyz"[int(np.argmax(np.abs(i.separate_along)))]
+            sign = "+" if max(i.separate_along, key=abs) > 0 else "-"
+            lines.append(f"  INTERFERENCE {i.a} / {i.b}: depth {i.depth_m * 1e3:.4g} mm (moving {i.a} by "
+                         f"that along {sign}{axis} clears it), contact at ({p}) mm")
     else:
         lines.append("  no interference between parts")
     for i in result.intended_contacts:
