@@ -994,6 +994,9 @@ class BulletWorld:
         if state_id not in self._states:
             raise KeyError(f"unknown state id {state_id}; known {self._states}")
         pybullet.restoreState(stateId=state_id, physicsClientId=self.client_id)
+        # Refresh the contact manifolds: otherwise getContactPoints keeps reporting the
+        # contacts of the last step before the restore until the next step.
+        pybullet.performCollisionDetection(physicsClientId=self.client_id)
         self._steps = self._state_steps[state_id]
 
     def remove_state(self, state_id: int) -> None:

@@ -11,14 +11,21 @@ BALANCED   1/1000   100       1e-6       on      "convex"; default
 ACCURATE   1/4000   200       1e-6       on      "exact"; tight fits, final proof
 ========== ======== ========= ========== ======= ===================================
 
-``min_resolvable_clearance_m`` is the smallest DIAMETRAL clearance (hole diameter minus pin
-diameter) at which a preset still completes a straight, gripper-driven pin-in-hole insertion
-(10 mm pin, 8-sided exact hole decomposition, 30 mm deep) with the success criteria of
-:mod:`asmplan.sim.execute`. It was measured by sweeping the radial clearance over
-1, 0.5, 0.2, 0.1, 0.05, 0.025 and 0.01 mm (``tests/sim/test_presets.py``, which also checks
-the stored value still resolves) and keeping the smallest clearance that succeeded, rounded
-up to a value in that ladder. A clearance below it may be reported as jammed (or pass through
-penetration) for numerical, not physical, reasons. See docs/physics.md for the numbers.
+``min_resolvable_clearance_m`` is the smallest DIAMETRAL clearance c_d (hole diameter minus
+pin diameter) at which a preset still tells a fit from an interference: a gripper-driven,
+straight insertion of a 10 mm steel pin into a 20 mm deep blind hole (8-sided exact
+decomposition, no chamfer) must SUCCEED with a radial clearance of c_d / 2, and with an
+INTERFERENCE of c_d / 2 the pin must stay blocked at the entrance (less than 2 mm of the
+20 mm entered when the gripper stops pushing). Measured by sweeping the radial value over
+0.2, 0.1, 0.05, 0.025 and 0.01 mm (``tests/sim/test_presets.py`` re-checks the stored value;
+the sweep command is in docs/physics.md):
+
+* FAST: interference blocked down to 0.2 mm radial (0.1 mm was pushed 18 mm in) -> 0.4 mm.
+* BALANCED: blocked down to 0.025 mm (0.01 mm was pushed 7 mm in) -> 0.05 mm.
+* ACCURATE: blocked at 0.01 mm, the smallest value tested -> 0.02 mm.
+
+Below it an interference fit may be pushed through by penetration (a wrong "success"), so
+:func:`asmplan.sim.execute.scene_warnings` flags such fits.
 """
 
 from __future__ import annotations
@@ -152,7 +159,7 @@ FAST = Fidelity(
     collision_margin_m=0.0,
     geometry_lod="coarse",
     record_every_steps=1,
-    min_resolvable_clearance_m=2e-3,
+    min_resolvable_clearance_m=0.4e-3,
 )
 
 BALANCED = Fidelity(
@@ -168,7 +175,7 @@ BALANCED = Fidelity(
     collision_margin_m=0.0,
     geometry_lod="convex",
     record_every_steps=4,
-    min_resolvable_clearance_m=0.2e-3,
+    min_resolvable_clearance_m=0.05e-3,
 )
 
 ACCURATE = Fidelity(
@@ -184,7 +191,7 @@ ACCURATE = Fidelity(
     collision_margin_m=0.0,
     geometry_lod="exact",
     record_every_steps=16,
-    min_resolvable_clearance_m=0.1e-3,
+    min_resolvable_clearance_m=0.02e-3,
 )
 
 PRESETS: dict[str, Fidelity] = {f.name: f for f in (FAST, BALANCED, ACCURATE)}

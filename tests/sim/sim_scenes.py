@@ -103,19 +103,35 @@ def run_seed_cycle(
 # Slip threshold: lift with constant upward acceleration
 # --------------------------------------------------------------------------------------------
 def constant_acceleration_lift(
-    T_tcp: np.ndarray, force_N: float, accel_mps2: float, lift_s: float = 0.2, dt_s: float = 1e-3
+    T_tcp: np.ndarray,
+    force_N: float,
+    accel_mps2: float,
+    lift_s: float = 0.2,
+    decel_mps2: float = 2.0,
+    dt_s: float = 1e-3,
 ) -> Trajectory:
-    """Clamp (ramp 0 -> F in 0.1 s), hold 0.2 s, then lift with z = a t^2 / 2 for ``lift_s``."""
+    """Clamp (0 -> F in 0.1 s), hold 0.2 s, lift at constant ``accel`` for ``lift_s``, then
+    brake at ``decel`` (< g, so braking needs less grip) to rest.
+    """
     t_clamp, t_hold = 0.1, 0.3
-    t = np.round(np.arange(0.0, t_hold + lift_s + 1e-12, dt_s), 12)
+    v_top = accel_mps2 * lift_s
+    t_lift = t_hold + lift_s
+    t_end = t_lift + v_top / decel_mps2
+    t = np.round(np.arange(0.0, t_end + 1e-12, dt_s), 12)
+    if t[-1] < t_end - 1e-12:
+        t = np.append(t, t_end)
+    tau = np.clip(t - t_hold, 0.0, lift_s)
+    z = 0.5 * accel_mps2 * tau**2
+    tb = np.clip(t - t_lift, 0.0, None)
+    z = z + v_top * tb - 0.5 * decel_mps2 * tb**2
     T = np.repeat(T_tcp[None], t.shape[0], axis=0)
-    tau = np.clip(t - t_hold, 0.0, None)
-    T[:, 2, 3] += 0.5 * accel_mps2 * tau**2
+    T[:, 2, 3] += z
     f = np.where(t < t_clamp, force_N * t / t_clamp, force_N)
     phases = (
         PhaseSpan("clamp", 0.0, t_clamp),
         PhaseSpan("hold", t_clamp, t_hold),
-        PhaseSpan("lift", t_hold, float(t[-1])),
+        PhaseSpan("lift", t_hold, t_lift),
+        PhaseSpan("translate", t_lift, float(t[-1])),
     )
     return Trajectory(t_s=t, T_world_gripper=T, clamp_force_N=f, phases=phases)
 
@@ -218,3 +234,10 @@ def pin_insertion(
             T_world_part_target=target,
             mate_axis_world=(0.0, 0.0, -1.0),
         )
+
+
+def entered_depth_m(record: StepRecord, scene: PinHole | None = None) -> float:
+    """How deep the pin was in the hole when the gripper stopped pushing (end of "lower"), m."""
+    s = scene or PinHole()
+    last = np.flatnonzero(record.phase_mask("lower"))[-1]
+    return s.hole_depth_m - float(record.axial_error_m[last])

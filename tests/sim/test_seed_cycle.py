@@ -11,22 +11,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sim_scenes import run_seed_cycle
-
-from asmplan.sim.fidelity import preset
 
 PAPER_MAE_N = 0.03
 
 
-@pytest.fixture(scope="module")
-def runs():
-    return {name: run_seed_cycle(preset(name)) for name in ("fast", "balanced", "accurate")}
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["balanced", "accurate"])
-def test_measured_clamp_force_tracks_the_seed_table(runs, name):
-    record, outcome, traj = runs[name]
+def test_measured_clamp_force_tracks_the_seed_table(seed_runs, name):
+    record, outcome, traj = seed_runs[name]
     assert outcome.clamp_force_mae_N <= PAPER_MAE_N
     assert outcome.success, outcome.reasons
     assert outcome.final_position_error_m < 1e-3
@@ -43,10 +35,10 @@ def test_measured_clamp_force_tracks_the_seed_table(runs, name):
 
 
 @pytest.mark.slow
-def test_fast_preset_is_reported(runs):
-    _, outcome, _ = runs["fast"]
+def test_fast_preset_is_reported(seed_runs):
+    _, outcome, _ = seed_runs["fast"]
     for name in ("fast", "balanced", "accurate"):
-        r, o, _ = runs[name]
+        r, o, _ = seed_runs[name]
         held = r.phase_mask("hold", "lift", "translate", "lower")
         whole = np.mean(np.abs(r.measured_force_N - r.commanded_force_N[:, None]))
         print(
