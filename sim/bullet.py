@@ -267,7 +267,6 @@ class _BodyInfo:
     T_link_inertial: np.ndarray  # base inertial frame in the base link frame
     n_links: int
     inertia_kgm2: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
-    has_hulls: bool = False
     compound_links: frozenset[int] = frozenset()
 
 
@@ -586,7 +585,6 @@ class BulletWorld:
             T_link_inertial=T_link_inertial,
             n_links=k,
             inertia_kgm2=inertia,
-            has_hulls=bool(hulls),
             compound_links=frozenset(j - 1 for j, g in enumerate(groups) if _is_compound(g)),
         )
         return body

@@ -241,3 +241,23 @@ def entered_depth_m(record: StepRecord, scene: PinHole | None = None) -> float:
     s = scene or PinHole()
     last = np.flatnonzero(record.phase_mask("lower"))[-1]
     return s.hole_depth_m - float(record.axial_error_m[last])
+
+
+def print_clearance_sweep(
+    name: str, radial_m: tuple[float, ...] = (0.2e-3, 0.1e-3, 0.05e-3, 0.025e-3, 0.01e-3)
+) -> None:
+    """The measurement behind ``Fidelity.min_resolvable_clearance_m`` (prints one row per value).
+
+    Run: ``cd tests/sim && /tmp/venv/bin/python -c "import sim_scenes as s;
+    s.print_clearance_sweep('balanced')"``
+    """
+    from asmplan.sim.fidelity import preset
+
+    fid = preset(name)
+    for c in radial_m:
+        _, fit = pin_insertion(fid, c)
+        rec, _ = pin_insertion(fid, -c)
+        print(
+            f"{name}: radial {c * 1e3:.3f} mm: fit inserted={fit.success}; interference "
+            f"entered {entered_depth_m(rec) * 1e3:.2f} mm of {PinHole().hole_depth_m * 1e3:.0f}"
+        )
