@@ -107,25 +107,26 @@ class NoPathError(PlanningError):
 class InsertionBlockedError(PlanningError):
     """The straight approach/insertion along the mate axis hits an obstacle.
 
-    ``obstacle`` names the body in the way, ``T_world_part`` is the pose of the moving part at
-    the first colliding sample, ``depth_along_axis_m`` how far along the straight segment
-    (from the pre-insertion pose) that sample lies.
+    ``obstacle`` names the body in the way, ``T_world_part`` is the pose of the moving part
+    where it hits (the first colliding sample), ``to_seat_m`` how far that pose is from the
+    seated pose along the mate axis, ``segment`` which pose or segment: "pre-insertion pose",
+    "insertion" or "assembled pose".
     """
 
     kind = "insertion_blocked"
 
     def __init__(self, step: int, part: str, obstacle: str, T_world_part: np.ndarray,
-                 pairs: Sequence[CollidingPair] = (), depth_along_axis_m: float = 0.0,
+                 pairs: Sequence[CollidingPair] = (), to_seat_m: float = 0.0,
                  segment: str = "insertion") -> None:
         self.obstacle = obstacle
         self.T_world_part = np.asarray(T_world_part, dtype=float)
         self.pairs = tuple(pairs)
-        self.depth_along_axis_m = float(depth_along_axis_m)
+        self.to_seat_m = float(to_seat_m)
         self.segment = segment
         p = self.T_world_part[:3, 3] * 1e3
         super().__init__(
-            f'step {step} (part "{part}"): {segment} blocked by "{obstacle}" '
-            f"{self.depth_along_axis_m * 1e3:.2f} mm along the mate axis; part at "
+            f'step {step} (part "{part}"): {segment} blocked by "{obstacle}": the part hits it '
+            f"{self.to_seat_m * 1e3:.2f} mm before its seated pose along the mate axis, at "
             f"[{p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}] mm"
             + (f"; contacts: {'; '.join(str(c) for c in self.pairs[:3])}" if self.pairs else ""),
             step, part)
@@ -133,7 +134,7 @@ class InsertionBlockedError(PlanningError):
     def evidence(self) -> dict[str, Any]:
         return {**super().evidence(), "obstacle": self.obstacle, "segment": self.segment,
                 "T_world_part": _pose_list(self.T_world_part),
-                "depth_along_axis_m": self.depth_along_axis_m,
+                "to_seat_m": self.to_seat_m,
                 "pairs": [c.as_dict() for c in self.pairs]}
 
 

@@ -11,8 +11,10 @@ composites with holes, imported meshes):
    faces; the principal axes of the surface; for cylinders, radial directions every 45 deg;
 2. approach axes: perpendicular to the closing axis every 45 deg, starting from "down" at the
    start pose (and the hint's ``approach_axis``);
-3. offsets of the pad centre along the approach axis and along the finger width, centred on
-   the centre of mass.
+3. offsets of the pad centre along the approach axis (steps of a sixth of the finger length)
+   and along the finger width (half-finger steps on parts wider than a finger; centred or
+   sticking out on one side only, its other edge 1 mm inside the part, on narrower ones),
+   centred on the centre of mass.
 
 For each candidate the pads are the finger boxes' inner faces, ``width x length`` rectangles
 (gripper x, z) centred on the TCP. The surface points inside a pad's footprint prism decide
@@ -30,7 +32,7 @@ approach)``: knowledge hints first, then grasps centred on the centre of mass wi
 contact area, coming from above at both poses. ``size`` is the part's bounding-box diagonal.
 
 Finger collisions with the partial assembly and the table at the start and final poses are
-judged by :func:`reject_colliding` with a checker supplied by :mod:`asmplan.planner.motion`.
+judged by :func:`collision_free` with a checker supplied by :mod:`asmplan.planner.motion`.
 """
 
 from __future__ import annotations
@@ -38,21 +40,22 @@ from __future__ import annotations
 import heapq
 import itertools
 import math
-from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import trimesh
 
 from ..knowledge.model import GraspHint, Gripper
-from .errors import CollidingPair, NoGraspError
+from .errors import CollidingPair
 from .plan import Grasp
 
 CONTACT_BAND_M = 3e-4
 """Surface points within this distance of a pad's plane count as touching it, m."""
 
 _MIN_CONTACT_POINTS = 3
+_EDGE_INSET_M = 1e-3  # a finger sticking out on one side keeps its other edge this far in
 _ANGLE_STEP_RAD = math.pi / 4
 
 
@@ -80,6 +83,7 @@ class GraspSurface:
     area_per_point_m2: float
     com_m: np.ndarray
     kind: str = "mesh"
+    axes_cache: dict[float, list[np.ndarray]] = field(default_factory=dict, repr=False)
 
     @classmethod
     def from_mesh(cls, mesh: trimesh.Trimesh, com_m: np.ndarray, n_samples: int, seed: int,
@@ -118,6 +122,21 @@ def closing_axes(surface: GraspSurface, hint: GraspHint | None, min_area_fractio
     cands: list[np.ndarray] = []
     if hint is not None and hint.closing_axis is not None:
         cands.append(_unit(hint.closing_axis))
+    cands.extend(_geometric_axes(surface, min_area_fraction))
+    out: list[np.ndarray] = []
+    for c in cands:
+        c = np.where(np.abs(c) < 1e-12, 0.0, c)
+        if all(abs(float(np.dot(c, o))) < 0.999 for o in out):
+            out.append(c)
+    return out
+
+
+def _geometric_axes(surface: GraspSurface, min_area_fraction: float) -> list[np.ndarray]:
+    """Closing axes from the geometry alone (cached on the surface)."""
+    cache = surface.axes_cache
+    if min_area_fraction in cache:
+        return cache[min_area_fraction]
+    cands: list[np.ndarray] = []
     # large planar faces with an opposite face: cluster sample normals on a 0.02 grid
     n = surface.normals[: surface.points_m.shape[0]]
     keys, counts = np.unique(np.round(n / 0.02).astype(int), axis=0, return_counts=True)
@@ -139,12 +158,8 @@ def closing_axes(surface: GraspSurface, hint: GraspHint | None, min_area_fractio
             a = k * _ANGLE_STEP_RAD
             cands.append(np.array([math.cos(a), math.sin(a), 0.0]))
         cands.append(np.array([0.0, 0.0, 1.0]))
-    out: list[np.ndarray] = []
-    for c in cands:
-        c = np.where(np.abs(c) < 1e-12, 0.0, c)
-        if all(abs(float(np.dot(c, o))) < 0.999 for o in out):
-            out.append(c)
-    return out
+    cache[min_area_fraction] = cands
+    return cands
 
 
 def iter_grasps(
@@ -206,10 +221,17 @@ def iter_grasps(
     hint_o = None if hint is None or hint.offset_m is None else np.asarray(hint.offset_m, float)
 
     frames: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]] = []
-    todo: list[tuple[float, int, int, float, float, bool]] = []  # (lb, serial, frame, u, v, hint)
+    # (lower bound, serial, frame, u, v, hint, cost without the area term)
+    todo: list[tuple[float, int, int, float, float, bool, float]] = []
     rel = P - com
+    app = surface.area_per_point_m2
     for c in closing_axes(surface, hint):
         is_hint_c = hint_c is not None and abs(float(np.dot(c, hint_c))) > 0.999
+        # the contact area can be no larger than the surface facing each finger within the
+        # friction cone: a floor of the area term, known before any evaluation
+        nc = N @ c
+        facing = min(int((nc >= cos_cone).sum()), int((nc <= -cos_cone).sum())) * app
+        area_floor = 0.5 * (1.0 - min(1.0, facing / pad_area))
         a0 = _perpendicular(c, down_s)
         b0 = np.cross(c, a0)
         approaches = [math.cos(k * _ANGLE_STEP_RAD) * a0 + math.sin(k * _ANGLE_STEP_RAD) * b0
@@ -243,35 +265,41 @@ def iter_grasps(
             v_hi = zhi + L / 2 - min_overlap_m
             vs = sorted({round(float(np.clip(k * L / 6, v_lo, v_hi)), 9) for k in range(-6, 7)},
                         key=lambda v: (abs(v), v))
-            us = [0.0]
             if xhi - xlo > W:  # the part is wider than a finger: slide along it too
                 us = sorted({round(float(np.clip(k * W / 2, xlo + W / 2, xhi - W / 2)), 9)
                              for k in range(-2, 3)}, key=lambda u: (abs(u), u))
+            else:  # narrower: centred, or sticking out on one side only (an edge 1 mm in)
+                us = sorted({0.0, round(xlo + _EDGE_INSET_M + W / 2, 9),
+                             round(xhi - _EDGE_INSET_M - W / 2, 9)}, key=lambda u: (abs(u), u))
             centres.extend((u, v) for v in vs for u in us)
             for u, v in centres:
-                todo.append((base + math.hypot(u, v) / size, len(todo), fi, u, v, is_hint))
+                todo.append((base + area_floor + math.hypot(u, v) / size, len(todo), fi, u, v,
+                             is_hint, base + math.hypot(u, v) / size))
     todo.sort(key=lambda t: (t[0], t[1]))
-    heap: list[tuple[float, int, Grasp]] = []
+    heap: list[tuple[float, int, tuple[Any, ...], bool]] = []
     strips: dict[tuple[int, float], tuple[_Strip, _Strip]] = {}
-    for lb, serial, fi, u, v, is_hint in todo:
+
+    def make(item: tuple[float, int, tuple[Any, ...], bool]) -> Grasp:
+        cost, _, (T, width, open_width, area, offset), hinted = item
+        return Grasp(part, T, width, open_width, area, offset,
+                     "hint" if hinted else "antipodal", cost)
+
+    for lb, serial, fi, u, v, is_hint, known in todo:
         while heap and heap[0][0] <= lb:
-            yield heapq.heappop(heap)[2]
+            yield make(heapq.heappop(heap))
         x, c, a, XYZ, _ = frames[fi]
         if (fi, u) not in strips:
             strips[fi, u] = (_Strip(XYZ, N, u, W / 2), _Strip(XYZ, N, u, palm[0] / 2))
         pad, palm_strip = strips[fi, u]
-        g = _evaluate(part, pad, palm_strip, x, c, a, com, u, v, L, palm, cos_cone, max_width,
+        g = _evaluate(pad, palm_strip, x, c, a, com, u, v, L, palm, cos_cone, max_width,
                       float(gripper.stroke_m), finger_clearance_m, surface.area_per_point_m2,
                       hint)
         if g is None:
             continue
-        cost = lb + 0.5 * (1.0 - min(1.0, g.contact_area_m2 / pad_area))
-        heapq.heappush(heap, (cost, serial, Grasp(part, g.T_part_gripper, g.width_m,
-                                                  g.open_width_m, g.contact_area_m2,
-                                                  g.com_offset_m,
-                                                  "hint" if is_hint else "antipodal", cost)))
+        cost = known + 0.5 * (1.0 - min(1.0, g[3] / pad_area))
+        heapq.heappush(heap, (cost, serial, g, is_hint))
     while heap:
-        yield heapq.heappop(heap)[2]
+        yield make(heapq.heappop(heap))
 
 
 def grasp_candidates(part: str, surface: GraspSurface, gripper: Gripper,
@@ -298,10 +326,12 @@ class _Strip:
                      int(np.searchsorted(self.Z, z_hi, side="right")))
 
 
-def _evaluate(part: str, pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
+def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
               a: np.ndarray, com: np.ndarray, u: float, v: float, L: float,
               palm: np.ndarray, cos_cone: float, max_width: float, stroke: float,
-              clearance: float, area_per_point: float, hint: GraspHint | None) -> Grasp | None:
+              clearance: float, area_per_point: float, hint: GraspHint | None
+              ) -> tuple[np.ndarray, float, float, float, float] | None:
+    """(T_part_gripper, width, open width, contact area, CoM offset) or None."""
     w = pad.window(v - L / 2, v + L / 2)
     yin = pad.Y[w]
     if yin.size == 0:
@@ -334,56 +364,49 @@ def _evaluate(part: str, pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.n
     open_width = min(stroke, width + 2.0 * clearance)
     if hint is not None and hint.width_m is not None and width <= hint.width_m <= stroke:
         open_width = float(hint.width_m)
-    return Grasp(part, T, width, open_width, area, math.hypot(u, v), "antipodal", 0.0)
+    return T, width, open_width, area, math.hypot(u, v)
 
 
-def reject_colliding(
-    grasps: Sequence[Grasp],
-    collisions: Callable[[Grasp], tuple[str, Sequence[CollidingPair]]],
-    limit: int,
-) -> tuple[list[Grasp], list[str]]:
-    """Keep the grasps whose fingers are free at the start and final poses.
+class Rejections:
+    """Tally of rejected grasp candidates by reason (pose and obstacles), for NoGraspError."""
+
+    def __init__(self) -> None:
+        self.counts: dict[str, int] = {}
+        self.examined = 0
+
+    def add(self, where: str, pairs: Sequence[CollidingPair]) -> None:
+        names = sorted({n for p in pairs for n in (p.a, p.b) if not n.startswith("gripper")})
+        key = f"the gripper hits {', '.join(names) or 'something'} at the {where}"
+        self.counts[key] = self.counts.get(key, 0) + 1
+
+    def reasons(self) -> list[str]:
+        return [f"{n} candidate{'s' if n != 1 else ''}: {k}"
+                for k, n in sorted(self.counts.items(), key=lambda kv: (-kv[1], kv[0]))]
+
+
+def collision_free(grasps: Iterable[Grasp],
+                   collisions: Callable[[Grasp], tuple[str, Sequence[CollidingPair]]],
+                   rejections: Rejections, max_candidates: int) -> Iterator[Grasp]:
+    """The grasps (in their order) whose fingers are free at the start and final poses.
 
     Parameters
     ----------
-    grasps : sequence of Grasp
-        Ranked candidates.
+    grasps : iterable of Grasp
+        Ranked candidates (e.g. :func:`iter_grasps`).
     collisions : callable
         ``collisions(grasp) -> (where, pairs)``: empty ``pairs`` when the gripper is free at
-        every checked pose, otherwise the first failing pose's name and its colliding pairs.
-    limit : int
-        Stop after this many accepted grasps.
-
-    Returns
-    -------
-    (accepted, reasons)
-        ``reasons`` summarises the rejections, grouped by pose and obstacle.
+        every pose it checks, else the first failing pose's name and its colliding pairs.
+    rejections : Rejections
+        Receives every rejected candidate's reason.
+    max_candidates : int
+        Stop after examining this many candidates.
     """
-    accepted: list[Grasp] = []
-    tally: dict[str, int] = {}
     for g in grasps:
+        if rejections.examined >= max_candidates:
+            return
+        rejections.examined += 1
         where, pairs = collisions(g)
-        if not pairs:
-            accepted.append(g)
-            if len(accepted) >= limit:
-                break
+        if pairs:
+            rejections.add(where, pairs)
             continue
-        obstacles = sorted({p.b for p in pairs} | {p.a for p in pairs} - {"gripper"})
-        key = f"gripper hits {', '.join(obstacles)} at the {where}"
-        tally[key] = tally.get(key, 0) + 1
-    reasons = [f"{n} candidate{'s' if n != 1 else ''}: {k}"
-               for k, n in sorted(tally.items(), key=lambda kv: (-kv[1], kv[0]))]
-    return accepted, reasons
-
-
-def require_grasps(part: str, candidates: Sequence[Grasp],
-                   collisions: Callable[[Grasp], tuple[str, Sequence[CollidingPair]]],
-                   limit: int, step: int | None = None) -> list[Grasp]:
-    """:func:`reject_colliding`, raising :class:`NoGraspError` when nothing survives."""
-    if not candidates:
-        raise NoGraspError(part, ["no antipodal finger placement within the gripper's stroke "
-                                  "and friction cone"], step)
-    accepted, reasons = reject_colliding(candidates, collisions, limit)
-    if not accepted:
-        raise NoGraspError(part, reasons or ["every candidate collided"], step)
-    return accepted
+        yield g

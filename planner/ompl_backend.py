@@ -185,7 +185,8 @@ def plan_se3(
         OMPL's motion-check resolution: the longest segment, in SE(3) distance (m plus rad),
         checked only at its ends.
     simplify : bool
-        Shortcut and smooth the path (deterministic ``simplifyMax``).
+        Shortcut the path: ``reduceVertices``, ``collapseCloseVertices``, ``reduceVertices``
+        (deterministic for a given seed).
 
     Returns
     -------
@@ -231,11 +232,16 @@ def plan_se3(
         t0 = time.perf_counter()
         status = ss.solve(ob.timedPlannerTerminationCondition(float(time_budget_s)))
         solved = bool(ss.haveExactSolutionPath())
-        if solved and simplify:
-            ss.simplifySolution()
         poses: list[np.ndarray] = []
         if ss.haveSolutionPath():
             path = ss.getSolutionPath()
+            if solved and simplify:
+                # deterministic and bounded: drop vertices that can be skipped, then merge
+                # close ones (simplifyMax would also smooth, at ~10x the validity checks)
+                ps = ss.getPathSimplifier()
+                ps.reduceVertices(path)
+                ps.collapseCloseVertices(path)
+                ps.reduceVertices(path)
             poses = [_state_pose(s) for s in path.getStates()]
         elapsed = time.perf_counter() - t0
     finally:

@@ -80,12 +80,17 @@ class PlannerSettings:
         Distance the open gripper travels along its approach axis onto the part, and back
         off after release, m.
     max_grasps : int
-        Grasp candidates tried per step before giving up.
+        Grasps whose full motion is attempted per step before giving up.
+    max_grasp_candidates : int
+        Ranked grasp candidates examined (finger collisions) per step before giving up.
     surface_samples : int
         Surface samples per part for antipodal grasp search.
     replan_attempts : int
         OMPL retries (halving the resolution, new seed offset) when a path fails the dense
         re-check.
+    collision_level : str
+        Level of detail of the part models used for planning ("exact" or "convex", see
+        :mod:`asmplan.parts.lod`); coarse models serve as a conservative first tier.
     timing : TimingSettings
     """
 
@@ -99,9 +104,11 @@ class PlannerSettings:
     contact_tolerance_m: float = 2e-5
     finger_clearance_m: float = 3e-3
     grasp_standoff_m: float = 0.03
-    max_grasps: int = 12
+    max_grasps: int = 6
+    max_grasp_candidates: int = 400
     surface_samples: int = 3000
     replan_attempts: int = 3
+    collision_level: str = "convex"
     timing: TimingSettings = field(default_factory=TimingSettings)
 
     def __post_init__(self) -> None:
@@ -109,10 +116,18 @@ class PlannerSettings:
             raise ValueError(f"planner: expected one of {sorted(PLANNERS)}, found {self.planner!r}")
         for f in fields(self):
             v = getattr(self, f.name)
-            if f.name in ("planner", "timing", "seed"):
+            if f.name in ("planner", "timing", "collision_level"):
+                continue
+            if f.name in ("seed", "replan_attempts"):
+                if not (isinstance(v, int) and v >= 0):
+                    raise ValueError(f"PlannerSettings.{f.name}: expected an integer >= 0, "
+                                     f"found {v!r}")
                 continue
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise ValueError(f"PlannerSettings.{f.name}: expected > 0, found {v!r}")
+        if self.collision_level not in ("exact", "convex"):
+            raise ValueError(f"collision_level: expected exact or convex, found "
+                             f"{self.collision_level!r}")
         if self.min_insertion_step_m > self.insertion_step_m:
             raise ValueError(f"min_insertion_step_m: expected <= insertion_step_m "
                              f"({self.insertion_step_m}), found {self.min_insertion_step_m}")
@@ -203,6 +218,9 @@ class Step:
     with the parts already placed: lowered onto its pose along ``insertion_direction``).
     Poses are of the part, world frame; ``path_T_world_gripper`` is the planned (simplified,
     re-checked) path of the gripper TCP from the lifted pose to the pre-insertion pose.
+    ``check_step_m`` is the finest step of the path certification; ``insertion_check_step_m``
+    the sampling step used along the insertion to excuse pin-in-hole contact (0 when the exact
+    swept-volume check met nothing); ``checked_poses`` how many poses were certified.
     """
 
     index: int

@@ -1,0 +1,166 @@
+"""``asmplan plan PRODUCT -o plan.json``: grasps, collision-free paths and timed trajectories.
+
+The part order is the sequence planner's best unless ``--sequence`` gives one. Exit codes: 0 a
+plan was written, 1 planning failed (the reason and its evidence on stderr, no file written),
+2 bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any, TextIO
+
+from ..knowledge.loader import load_product
+from ..planner.errors import PlanningError
+from ..planner.ompl_backend import PLANNERS
+from ..planner.plan import Plan, PlannerSettings
+
+
+def _positive_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected a number, found "{text}"') from None
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, found {text}")
+    return v
+
+
+def _seed(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected an integer seed, found "{text}"') from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"expected a seed >= 0, found {v}")
+    return v
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    d = PlannerSettings()
+    p = sub.add_parser(
+        "plan", help="plan grasps, collision-free paths and trajectories for every step",
+        description="Plan every assembly step: an antipodal grasp, a lift, an OMPL path to a "
+                    "pre-insertion pose on the mate axis, a straight insertion, all proven "
+                    "collision-free with FCL, and a timed trajectory with the clamp force. "
+                    "Writes the plan as JSON (docs/plan-format.md). Exit 1 with the reason and "
+                    "evidence when a step cannot be planned, 2 on bad input.")
+    p.add_argument("product", help="product YAML file")
+    p.add_argument("-o", "--output", default="plan.json",
+                   help="plan file to write (default plan.json; replaced atomically)")
+    p.add_argument("--sequence", metavar="A,B,...",
+                   help="part order to plan (default: the sequence planner's best)")
+    p.add_argument("--seed", type=_seed, default=d.seed, help=f"random seed (default {d.seed})")
+    p.add_argument("--planner", choices=sorted(PLANNERS), default=d.planner,
+                   help=f"OMPL planner (default {d.planner})")
+    p.add_argument("--time-budget", type=_positive_float, default=d.time_budget_s,
+                   metavar="SECONDS",
+                   help=f"OMPL search budget per query (default {d.time_budget_s:g} s)")
+    p.add_argument("--level", choices=("convex", "exact"), default=d.collision_level,
+                   help=f"collision model level used for planning (default {d.collision_level})")
+    p.set_defaults(func=run)
+
+
+class Progress:
+    """A one-line progress bar on a terminal, plain lines otherwise (both on ``stream``)."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+        self.tty = bool(getattr(stream, "isatty", lambda: False)())
+        self.t0 = time.perf_counter()
+
+    def __call__(self, k: int, n: int, part: str, status: str) -> None:
+        done = k + (status == "done")
+        if self.tty:
+            width = 24
+            fill = round(width * done / n)
+            self.stream.write(f"\r[{'#' * fill}{'.' * (width - fill)}] {done}/{n} {part:<16}")
+            if done == n and status == "done":
+                self.stream.write("\n")
+        elif status == "done":
+            self.stream.write(f"planned step {k + 1}/{n}: {part} "
+                              f"({time.perf_counter() - self.t0:.2f} s)\n")
+        self.stream.flush()
+
+
+def _evidence_lines(evidence: dict[str, Any]) -> list[str]:
+    lines = []
+    for p in evidence.get("pairs") or []:
+        depth = "" if p.get("depth_m") is None else f" depth {p['depth_m'] * 1e3:.3f} mm"
+        point = "" if p.get("point_m") is None else \
+            " at [" + ", ".join(f"{1e3 * c:.1f}" for c in p["point_m"]) + "] mm"
+        lines.append(f"  contact: {p['a']} / {p['b']}{depth}{point}")
+    for r in evidence.get("reasons") or []:
+        lines.append(f"  - {r}")
+    path = evidence.get("partial_path_T_world_gripper")
+    if path:
+        last = path[-1]
+        lines.append(f"  partial path: {len(path)} pose(s), last gripper position "
+                     f"[{1e3 * last[0][3]:.1f}, {1e3 * last[1][3]:.1f}, {1e3 * last[2][3]:.1f}] mm")
+    return lines
+
+
+def summary_table(plan: Plan, step_ms: list[float]) -> str:
+    """A plain-text table: one row per step."""
+    head = ("step", "part", "kind", "grasp", "width mm", "force N", "move s", "plan ms")
+    rows = []
+    for s, ms in zip(plan.steps, step_ms, strict=True):
+        if s.grasp is None or s.trajectory is None or s.clamp is None:
+            rows.append((str(s.index + 1), s.part, s.kind, "-", "-", "-", "-", f"{ms:.1f}"))
+            continue
+        rows.append((str(s.index + 1), s.part, s.kind, s.grasp.source,
+                     f"{s.grasp.width_m * 1e3:.1f}", f"{s.clamp.commanded_N:.2f}",
+                     f"{s.trajectory.duration_s:.2f}", f"{ms:.1f}"))
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(head)]
+    fmt = "  ".join(f"{{:<{w}}}" for w in widths)
+    lines = [fmt.format(*head), fmt.format(*("-" * w for w in widths))]
+    lines += [fmt.format(*r) for r in rows]
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..planner.motion import best_sequence, plan_product
+    from ..planner.sequence import NoFeasibleSequenceError
+
+    product = load_product(args.product)
+    settings = PlannerSettings(planner=args.planner, time_budget_s=args.time_budget,
+                               seed=args.seed, collision_level=args.level)
+    insertions = None
+    if args.sequence:
+        order = [s.strip() for s in args.sequence.split(",") if s.strip()]
+        unknown = [s for s in order if s not in product.part_names]
+        if unknown or sorted(order) != sorted(product.part_names):
+            print(f"asmplan plan: --sequence: expected every part of {product.name} once "
+                  f"({', '.join(product.part_names)}), found {', '.join(order) or 'nothing'}",
+                  file=sys.stderr)
+            return 2
+        note = "given on the command line"
+    else:
+        try:
+            order, note, insertions = best_sequence(product)
+        except NoFeasibleSequenceError as exc:
+            print(f"asmplan plan: no feasible sequence: {exc}", file=sys.stderr)
+            return 1
+    progress = Progress(sys.stderr)
+    try:
+        result = plan_product(product, settings, sequence=order, sequence_note=note,
+                              insertions=insertions, progress=progress)
+    except PlanningError as exc:
+        if progress.tty:
+            sys.stderr.write("\n")
+        print(f"asmplan plan: planning failed: {exc}", file=sys.stderr)
+        for line in _evidence_lines(exc.evidence()):
+            print(line, file=sys.stderr)
+        return 1
+    result.plan.write(args.output)
+    ms = [t.total_s * 1e3 for t in result.step_times]
+    print(f"{product.name}: {len(result.plan.steps)} steps planned in {result.total_s:.2f} s "
+          f"({note}); plan written to {args.output}")
+    print(summary_table(result.plan, ms))
+    for s in result.plan.steps:
+        for n in (s.start_note, *s.notes):
+            if n and ("raised" in n or "no start pose" in n or "hint" in n):
+                print(f"note: {s.part}: {n}")
+    return 0
