@@ -211,9 +211,8 @@ class Gripper:
         self._constraint = world.add_pose_constraint(
             self.body, np.asarray(T_world_tcp, dtype=float), spec.pose_max_force_N
         )
-        g = world.gravity_mps2
-        self._palm_weight_N = (-spec.palm_mass_kg * g).tolist()
-        self._finger_weight_N = (-spec.finger_mass_kg * g).tolist()
+        total_kg = spec.palm_mass_kg + 2.0 * spec.finger_mass_kg
+        self._lift_N = (-total_kg * world.gravity_mps2).tolist()
         self._mode = "open"
         self._touching = False
         self._torque = False
@@ -266,10 +265,10 @@ class Gripper:
             self._constraint, position_m.tolist(), quat_xyzw.tolist(), self.spec.pose_max_force_N
         )
         if self.spec.gravity_compensation:
+            # The whole gripper's weight, lifted at the palm's centre of mass (the fingers sit
+            # symmetrically about it; what remains is a small torque the constraint takes).
             w = self.world
-            w.apply_force(self.body, -1, self._palm_weight_N, w.com_position_m(self.body))
-            for link in FINGER_LINKS:
-                w.apply_force(self.body, link, self._finger_weight_N, w.com_position_m(self.body, link))
+            w.apply_force(self.body, -1, self._lift_N, w.com_position_m(self.body))
 
     def command_clamp_force(self, force_N: float) -> None:
         """Force mode: each finger pushes toward the centre with ``force_N`` (>= 0), N.
