@@ -442,7 +442,7 @@ class CollisionWorld:
         e = self._entry(name)
         targets = self._others(name, others)
         blockers: set[str] = set()
-        swept = [(_swept_object(g, e.T, delta), g) for g in e.geoms if g.piece is not None]
+        swept = [_swept_object(g, e.T, delta) for g in e.geoms if g.piece is not None]
         lo = np.minimum(e.bbox[0], e.bbox[0] + delta)
         hi = np.maximum(e.bbox[1], e.bbox[1] + delta)
         for o in targets:

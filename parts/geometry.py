@@ -25,6 +25,9 @@ Curved surfaces become regular polygons whose radial error is at most
 * outer surfaces (cylindrical bodies, pins, spheres) use the CIRCUMSCRIBED polygon, so a body
   is never smaller than declared.
 
+The bodies of a composite are grown by 10 nm before their union so that bodies touching
+face to face fuse into one solid (exactly touching faces are not welded by the booleans).
+
 A cylinder body that carries coaxial male features of its own diameter (a shaft with bearing
 seats, a post with a foot and a head) is built as a stack of sections, each at the fitted
 diameter of the feature covering it (nominal elsewhere); a feature tip on an end face
@@ -441,17 +444,23 @@ def _cylinder_profile(sections: tuple[CylinderSection, ...], ch_lo: float, ch_hi
     return out
 
 
-def body_solid(body: BodyShape, tol_m: float):
-    """Manifold of one body in the part frame."""
+WELD_M = 10e-9  # bodies of a composite grow by this much so that touching bodies fuse
+
+
+def body_solid(body: BodyShape, tol_m: float, grow_m: float = 0.0):
+    """Manifold of one body in the part frame, grown outwards by ``grow_m``."""
     m3 = _m3()
     if body.kind == "box":
-        solid = m3.Manifold.cube(list(2.0 * body.half_extents_m), True)
+        solid = m3.Manifold.cube(list(2.0 * body.half_extents_m + 2.0 * grow_m), True)
     elif body.kind == "cylinder":
         n = sides_for_tolerance(max(s.radius_m for s in body.sections), tol_m)
         solid = revolved(_cylinder_profile(body.sections, body.chamfer_low_m, body.chamfer_high_m), n)
+        if grow_m > 0:
+            solid = solid.scale([1.0 + grow_m / body.radius_m, 1.0 + grow_m / body.radius_m,
+                                 1.0 + 2.0 * grow_m / body.length_m])
     else:
         n = sides_for_tolerance(body.radius_m, tol_m)
-        solid = m3.Manifold.sphere(body.radius_m / math.cos(math.pi / n) ** 2, n)
+        solid = m3.Manifold.sphere((body.radius_m + grow_m) / math.cos(math.pi / n) ** 2, n)
     return _placed(solid, body.T_part_body)
 
 
@@ -482,7 +491,9 @@ def shape_solid(shape: PartShape, tol_m: float, *, with_pins: bool = True):
     m3 = _m3()
     if shape.is_mesh:
         raise GeometryError(shape.part, "a mesh part has no primitive shape; load its file")
-    solid = m3.Manifold.batch_boolean([body_solid(b, tol_m) for b in shape.bodies], m3.OpType.Add)
+    # bodies that touch face to face only fuse when they overlap: grow them by 10 nm
+    grow = WELD_M if len(shape.bodies) > 1 else 0.0
+    solid = m3.Manifold.batch_boolean([body_solid(b, tol_m, grow) for b in shape.bodies], m3.OpType.Add)
     if shape.holes:
         solid = m3.Manifold.batch_boolean([solid, *(hole_solid(h, tol_m) for h in shape.holes)],
                                           m3.OpType.Subtract)
