@@ -228,7 +228,7 @@ class BlockingTable:
                 for p in self.parts}
 
 
-def blocking_table(product: Product, oracle: GeometryOracle, *, support_probe_m: float = 1.0e-3,
+def blocking_table(product: Product, oracle: GeometryOracle, *, support_probe_m: float = 1.0e-4,
                    table_contact_m: float = 1.0e-4, margin_m: float = 1.0e-3) -> BlockingTable:
     """Sweep every part along every candidate direction in the full assembly.
 

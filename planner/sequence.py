@@ -32,7 +32,7 @@ Stability
 ---------
 A part placed must be held: it is fixtured (the product declares a fixture for it, or
 ``fixtured: true``), or it rests on the table, or a part already placed supports it (the
-part is among the blockers of a 1 mm probe of it straight down: something is under it, a
+part is among the blockers of a 0.1 mm probe of it straight down: something is under it, a
 shaft through its bore included), or it is mated to a part already placed. Held by mates
 only (nothing under it) counts one unit of *stability risk*.
 
@@ -120,7 +120,7 @@ class SequenceSettings:
     beam_width: int = 64
     max_beam_width: int = 1024
     angle_tolerance_rad: float = math.radians(1.0)
-    support_probe_m: float = 1.0e-3
+    support_probe_m: float = 1.0e-4
     table_contact_m: float = 1.0e-4
 
     def __post_init__(self) -> None:
@@ -169,7 +169,10 @@ class PrecedenceConflictError(ProductError):
         self.rules = tuple(rules)
         self.geometry = geometry
         self.explanation = explanation
-        issues = [InputIssue(str(product.source), r.source_line, 0, "precedence.rules",
+        index = {id(r): i for i, r in enumerate(product.precedence.rules)}
+        issues = [InputIssue(str(product.source), r.source_line, _rule_column(product, r),
+                             f"precedence.rules[{index[id(r)]}]" if id(r) in index
+                             else "precedence.rules",
                              f'rule "{r.before} before {r.after}" ({r.reason}) contradicts the '
                              f"geometry: {explanation}") for r in self.rules]
         super().__init__(issues)
@@ -180,6 +183,16 @@ class PrecedenceConflictError(ProductError):
                 "rules": [{"before": r.before, "after": r.after, "reason": r.reason,
                            "line": r.source_line} for r in self.rules],
                 "geometry": self.geometry}
+
+
+def _rule_column(product: Product, rule: PrecedenceRule) -> int:
+    """1-based column of the rule's item on its line (0 when the file cannot be read)."""
+    try:
+        line = product.source.read_text(encoding="utf-8").splitlines()[rule.source_line - 1]
+    except (OSError, IndexError, UnicodeDecodeError):
+        return 0
+    stripped = line.lstrip(" -")
+    return len(line) - len(stripped) + 1 if stripped else 0
 
 
 class NoFeasibleSequenceError(Exception):
@@ -318,7 +331,8 @@ class SequencePlan:
 
     def explain(self, before: str, after: str) -> str:
         """Why ``before`` comes before ``after``: the direct edge's reasons, else the chain of
-        edges (shortest path) with each edge's reasons."""
+        edges (shortest path) with each edge's reasons. When ``after`` blocks some but not all
+        of ``before``'s insertion directions, that is said too."""
         try:
             path = nx.shortest_path(self.precedence, before, after)
         except (nx.NetworkXNoPath, nx.NodeNotFound):
@@ -331,9 +345,20 @@ class SequencePlan:
             reasons = "; ".join(f'{o["kind"]}: {o["reason"]}'
                                 for o in self.precedence.edges[u, v]["origins"])
             parts.append(f"{u} before {v} ({reasons})")
-        head = "" if len(path) == 2 else f"{before} before {after} through " \
-            f"{' -> '.join(path)}: "
-        return head + "; and ".join(parts)
+        if len(path) == 2:
+            return parts[0]
+        text = f"{before} before {after} through {' -> '.join(path)}: " + "; and ".join(parts)
+        anc = frozenset(nx.ancestors(self.precedence, before))
+        t = self.blocking
+        rows = list(zip(t.directions[before], t.blockers[before], t.table_blocked[before],
+                        strict=True))
+        by_after = [d.insertion_label for d, b, tb in rows if after in b and not tb and not (b & anc)]
+        free = [d.insertion_label for d, b, tb in rows if after not in b and not tb and not (b & anc)]
+        if by_after:
+            text += (f". Directly, {after} blocks {before}'s insertion along {', '.join(by_after)}"
+                     + (f" but not along {', '.join(free)}" if free else "")
+                     + (", so that alone would not order them" if free else ""))
+        return text
 
     def edges(self) -> list[dict[str, Any]]:
         """Every precedence edge with its origins, sorted."""
