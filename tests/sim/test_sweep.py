@@ -140,6 +140,27 @@ def die_always(i: int) -> int:
     return 10 * i
 
 
+PIN_CLEARANCE = sw.ClearanceRange(MATE, 0.8e-3, 1.0e-3)  # diametral; FAST resolves >= 0.4 mm
+
+
+def pybullet_pin_insertion(fidelity_name: str, params: sw.SampleParams) -> dict:
+    """A real PyBullet pick-and-insert (tests/sim/sim_scenes.py, no chamfer) per sample.
+
+    The diametral clearance is the sample's; its lateral pose error magnitude becomes an
+    offset of the place pose along x. The wall time is left out (not a physics result).
+    """
+    from sim_scenes import pin_insertion
+
+    from asmplan.sim.fidelity import preset
+
+    _, outcome = pin_insertion(preset(fidelity_name), 0.5 * params.clearance_m[MATE],
+                               lateral_offset_m=params.pose_error(STEP).lateral_norm_m)
+    d = outcome.to_dict()
+    del d["wall_time_s"]
+    return {"steps": {STEP: {"success": outcome.success, "reasons": list(outcome.reasons)}},
+            "outcome": d}
+
+
 PARENT_STATE = {"value": "import-time"}
 
 
