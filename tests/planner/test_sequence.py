@@ -13,16 +13,19 @@ import json
 import math
 from pathlib import Path
 
+import networkx as nx
 import numpy as np
 import pytest
 
 from asmplan.knowledge.generator import generate_product, generated_product
+from asmplan.knowledge.graphs import precedence_graph
 from asmplan.knowledge.loader import load_product
 from asmplan.knowledge.model import Product
-from asmplan.planner.blocking import blocking_table, mate_insertion_direction
+from asmplan.planner.blocking import BlockingTable, blocking_table, mate_insertion_direction
 from asmplan.planner.sequence import (
     COST_TERMS,
     NoFeasibleSequenceError,
+    PrecedenceConflictError,
     SequenceSettings,
     plan_sequence,
 )
@@ -233,3 +236,213 @@ def test_generator_seeds_differ_and_use_two_insertion_axes() -> None:
             for m in product.mates}
     assert (0.0, 0.0, -1.0) in axes and len(axes) >= 2
     assert any(p.name.endswith("_cover") for p in product.parts)
+
+
+# --------------------------------------------------------------------------------------------
+# Real geometry (FCL on the exact convex pieces of asmplan.parts)
+# --------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def fcl_tables(examples: dict[str, Product]) -> dict[str, BlockingTable]:
+    """Blocking tables of the bundled examples, swept once with FCL."""
+    from asmplan.planner.fcl_oracle import FclOracle
+
+    return {name: blocking_table(p, FclOracle(p)) for name, p in examples.items()}
+
+
+def _removal_blockers(table: BlockingTable, part: str, removal: str) -> frozenset[str]:
+    (i,) = [k for k, d in enumerate(table.directions[part]) if d.label == removal]
+    return table.blockers[part][i]
+
+
+def _assert_feasible(product: Product, table: BlockingTable, order: tuple[str, ...]) -> None:
+    """Replay ``order`` against the blocking table, the rules and the stability rule."""
+    assert sorted(order) == sorted(product.part_names)
+    partners: dict[str, set[str]] = {p: set() for p in product.part_names}
+    for m in product.mates:
+        partners[m.pin_part].add(m.hole_part)
+        partners[m.hole_part].add(m.pin_part)
+    placed: set[str] = set()
+    for p in order:
+        free = [d.insertion_label for d, b, t in zip(table.directions[p], table.blockers[p],
+                                                     table.table_blocked[p], strict=True)
+                if not t and not (b & placed)]
+        assert free, f"{p} has no free insertion direction after {sorted(placed)}"
+        held = (product.is_fixtured(p) or table.on_table[p] or table.supporters[p] & placed
+                or partners[p] & placed)
+        assert held, f"nothing holds {p} after {sorted(placed)}"
+        placed.add(p)
+    for rule in product.precedence.rules:
+        assert order.index(rule.before) < order.index(rule.after), rule
+    if product.precedence.base:
+        assert order[0] == product.precedence.base
+
+
+@pytest.mark.slow  # shares the FCL sweeps of the examples (~2 s)
+def test_peg_in_hole_exactly_block_then_peg(examples, fcl_tables) -> None:
+    product, table = examples["peg_in_hole"], fcl_tables["peg_in_hole"]
+    plan = plan_sequence(product, settings=SequenceSettings(top_k=10), table=table)
+    assert plan.feasible_count == 1
+    assert [s.order for s in plan.sequences] == [("block", "peg")]
+    # H7/g6 (positive clearance): the peg leaves its hole upward touching nothing
+    assert _removal_blockers(table, "peg", "+z") == frozenset()
+    assert plan.best.steps[1].insertion_label == "-z"
+
+
+@pytest.mark.slow  # shares the FCL sweeps of the examples (~2 s)
+def test_pinhole_station_has_one_feasible_order(examples, fcl_tables) -> None:
+    product, table = examples["pinhole_station"], fcl_tables["pinhole_station"]
+    plan = plan_sequence(product, settings=SequenceSettings(top_k=100), table=table)
+    assert plan.feasible_count == 1
+    assert [s.order for s in plan.sequences] == [("part1", "part2", "part3", "part4")]
+    assert [s.insertion_label for s in plan.best.steps] == ["-z"] * 4
+    # pins slide out of their holes along the mate axis: only the parts above block
+    assert _removal_blockers(table, "part4", "+z") == frozenset()
+    assert _removal_blockers(table, "part3", "+z") == {"part4"}
+    assert _removal_blockers(table, "part2", "+z") == {"part3", "part4"}
+    # sideways, the pins in the part below (and the pins of the part above) block
+    assert _removal_blockers(table, "part3", "+x") == {"part2", "part4"}
+    _assert_feasible(product, table, plan.best.order)
+
+
+@pytest.mark.slow  # shares the FCL sweeps of the examples (~2 s)
+def test_gear_unit_geometry_reveals_wheel_and_shaft_before_cover(examples, fcl_tables) -> None:
+    product, table = examples["gear_unit"], fcl_tables["gear_unit"]
+    knowledge = precedence_graph(product)
+    assert not nx.has_path(knowledge, "wheel", "cover")
+    assert not nx.has_path(knowledge, "shaft", "cover")
+    plan = plan_sequence(product, settings=SequenceSettings(top_k=1000), table=table)
+    assert plan.feasible_count == len(plan.sequences) > 1
+    for s in plan.sequences:
+        assert s.order.index("shaft") < s.order.index("wheel") < s.order.index("cover")
+        _assert_feasible(product, table, s.order)
+    assert {("shaft", "cover"), ("wheel", "cover")} <= set(plan.necessary)
+    # wheel before cover: a geometry edge; the flange blocks -x, the bearing block +x
+    (geo,) = [o for o in plan.origins("wheel", "cover") if o["kind"] == "geometry"]
+    assert geo["blocker"] == "cover" and geo["blocked_directions"] == ["-x"]
+    assert "bearing_block" in geo["given"]
+    assert "with cover in place wheel cannot be inserted" in geo["reason"]
+    # the flange is in the shaft's way along -x too, but the shaft could come in along +x:
+    # shaft before cover holds through the wheel, which only the shaft can hold
+    assert "cover" in _removal_blockers(table, "shaft", "+x")
+    assert _removal_blockers(table, "shaft", "-x") == frozenset()
+    text = plan.explain("shaft", "cover")
+    assert "shaft -> wheel -> cover" in text
+    assert "stability: wheel is not fixtured" in text
+    assert "cover blocks its insertion along -x" in text
+    assert "Directly, cover blocks shaft's insertion along -x but not along +x" in text
+    # the rule "bearing_block before cover" is also geometry
+    kinds = {o["kind"] for o in plan.origins("bearing_block", "cover")}
+    assert kinds == {"rule", "geometry"}
+
+
+@pytest.mark.slow  # shares the FCL sweeps of the examples (~2 s)
+def test_gear_unit_rule_implied_by_geometry_changes_nothing(examples, fcl_tables, tmp_path) -> None:
+    product, table = examples["gear_unit"], fcl_tables["gear_unit"]
+    text = (Path(product.source)).read_text(encoding="utf-8")
+    line = next(ln for ln in text.splitlines(keepends=True) if "{before: bearing_block, after: cover" in ln)
+    reduced = _load_text(tmp_path, text.replace(line, "").replace("  rules:\n", "  rules: []\n"))
+    assert reduced.precedence.rules == ()
+    with_rule = plan_sequence(product, settings=SequenceSettings(top_k=1000), table=table)
+    without = plan_sequence(reduced, settings=SequenceSettings(top_k=1000), table=table)
+    assert without.best.order == with_rule.best.order
+    assert without.best.cost_s == pytest.approx(with_rule.best.cost_s, abs=1e-12)
+    assert without.feasible_count == with_rule.feasible_count
+    assert [s.order for s in without.sequences] == [s.order for s in with_rule.sequences]
+    assert without.necessary == with_rule.necessary
+    assert [o["kind"] for o in without.origins("bearing_block", "cover")] == ["geometry"]
+
+
+def test_contradictory_rule_names_the_rule_and_the_geometry() -> None:
+    from asmplan.planner.fcl_oracle import FclOracle
+
+    path = FIXTURES / "contradictory_rules.yaml"
+    line = 1 + next(i for i, ln in enumerate(path.read_text(encoding="utf-8").splitlines())
+                    if "{before: cap, after: riser" in ln)
+    product = load_product(path)
+    with pytest.raises(PrecedenceConflictError) as info:
+        plan_sequence(product, FclOracle(product))
+    err = info.value
+    message = str(err)
+    assert f"contradictory_rules.yaml:{line}:" in message
+    assert 'rule "cap before riser" (the cap is pre-assembled on the plate by the supplier) ' \
+           "contradicts the geometry" in message
+    assert "riser must come before cap" in message
+    assert "with cap in place riser cannot be inserted: cap blocks its insertion along -z" in message
+    assert [(r.before, r.after, r.source_line) for r in err.rules] == [("cap", "riser", line)]
+    (edge,) = err.geometry
+    assert (edge["before"], edge["after"]) == ("riser", "cap")
+    assert any(o["kind"] == "geometry" and o["blocker"] == "cap" for o in edge["origins"])
+
+
+@pytest.mark.slow
+def test_fifty_parts_plan_in_one_go() -> None:
+    """50 generated parts: beam search, a feasible best sequence (timing: the benchmark)."""
+    from asmplan.planner.fcl_oracle import FclOracle
+
+    product = generated_product(50, seed=0)
+    plan = plan_sequence(product, FclOracle(product))
+    assert plan.method == "beam" and plan.feasible_count is None
+    assert len(plan.sequences) == SequenceSettings().top_k
+    for s in plan.sequences:
+        _assert_feasible(product, plan.blocking, s.order)
+    # every L-cover comes after the side plate its flange shields (geometry only)
+    covers = [p for p in product.part_names if p.endswith("_cover")]
+    for cover in covers:
+        side = cover.replace("_cover", "_side")
+        if side in product.part_names and any(o["kind"] == "geometry"
+                                              for o in plan.origins(side, cover)):
+            assert plan.best.order.index(side) < plan.best.order.index(cover)
+
+
+def test_generated_l_cover_shields_the_side_plate() -> None:
+    """The generator's L-cover: side plate before cover is geometry, not a rule."""
+    from asmplan.planner.fcl_oracle import FclOracle
+
+    product = generated_product(5, seed=0)
+    assert [r.after for r in product.precedence.rules] == ["c0_cover"]
+    assert ("c0_side", "c0_cover") not in {(r.before, r.after) for r in product.precedence.rules}
+    plan = plan_sequence(product, FclOracle(product), SequenceSettings(top_k=10))
+    assert plan.feasible_count == 1
+    assert plan.best.order == ("base", "c0_block0", "c0_block1", "c0_side", "c0_cover")
+    (geo,) = [o for o in plan.origins("c0_side", "c0_cover") if o["kind"] == "geometry"]
+    assert geo["blocked_directions"] == ["-x"]
+    assert plan.best.steps[3].insertion_label == "-x"
+
+
+# --------------------------------------------------------------------------------------------
+# CLI
+# --------------------------------------------------------------------------------------------
+def test_cli_json_lists_sequences_costs_and_reasons(examples, capsys) -> None:
+    from asmplan.cli import main
+
+    path = str(examples["pinhole_station"].source)
+    assert main(["sequence", path, "--json", "--top", "3"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["feasible"] is True and out["feasible_count"] == 1
+    assert [s["order"] for s in out["sequences"]] == [["part1", "part2", "part3", "part4"]]
+    (seq,) = out["sequences"]
+    assert set(seq["cost_terms"]) == set(COST_TERMS)
+    assert seq["cost_s"] == pytest.approx(sum(t["cost_s"] for t in seq["cost_terms"].values()),
+                                          abs=1e-5)
+    assert out["precedence"], "expected precedence edges"
+    for edge in out["precedence"]:
+        assert edge["origins"] and all(o["kind"] and o["reason"] for o in edge["origins"])
+
+
+def test_cli_contradictory_rules_exit_2_with_the_rule_location(capsys) -> None:
+    from asmplan.cli import main
+
+    path = FIXTURES / "contradictory_rules.yaml"
+    line = 1 + next(i for i, ln in enumerate(path.read_text(encoding="utf-8").splitlines())
+                    if "{before: cap, after: riser" in ln)
+    assert main(["sequence", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert f'contradictory_rules.yaml:{line}:7: precedence.rules[0]: rule "cap before riser"' in err
+    assert "cap blocks its insertion along -z" in err
+
+
+def test_cli_rejects_unknown_weight(capsys) -> None:
+    from asmplan.cli import main
+
+    assert main(["sequence", str(FIXTURES / "three_blocks.yaml"), "--weight", "speed=3"]) == 2
+    assert "expected TERM=SECONDS with TERM one of reorientations" in capsys.readouterr().err
