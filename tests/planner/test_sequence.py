@@ -446,3 +446,52 @@ def test_cli_rejects_unknown_weight(capsys) -> None:
 
     assert main(["sequence", str(FIXTURES / "three_blocks.yaml"), "--weight", "speed=3"]) == 2
     assert "expected TERM=SECONDS with TERM one of reorientations" in capsys.readouterr().err
+
+
+BOXED_IN = """\
+asmplan: 1
+product: boxed_in
+units: {length: mm, mass: g}
+parts:
+  - {name: plate, material: steel, geometry: {type: box, size: [200, 200, 10]},
+     pose: {xyz: [0, 0, 5]}, fixtured: true}
+  - {name: x, material: steel, geometry: {type: box, size: [40, 40, 20]}, pose: {xyz: [0, 0, 20]},
+     start: {xyz: [0, 300, 10]}}
+  - {name: wall_px, material: steel, geometry: {type: box, size: [10, 60, 30]},
+     pose: {xyz: [25, 0, 25]}, start: {xyz: [100, 300, 15]}}
+  - {name: wall_nx, material: steel, geometry: {type: box, size: [10, 60, 30]},
+     pose: {xyz: [-25, 0, 25]}, start: {xyz: [-100, 300, 15]}}
+  - {name: wall_py, material: steel, geometry: {type: box, size: [40, 10, 30]},
+     pose: {xyz: [0, 25, 25]}, start: {xyz: [200, 300, 15]}}
+  - {name: wall_ny, material: steel, geometry: {type: box, size: [40, 10, 30]},
+     pose: {xyz: [0, -25, 25]}, start: {xyz: [-200, 300, 15]}}
+  - {name: lid, material: steel, geometry: {type: box, size: [60, 60, 5]},
+     pose: {xyz: [0, 0, 42.5]}, start: {xyz: [0, 400, 2.5]}}
+precedence:
+  base: plate
+  rules:
+    - {before: wall_px, after: x, reason: walls first}
+    - {before: wall_nx, after: x, reason: walls first}
+    - {before: wall_py, after: x, reason: walls first}
+    - {before: wall_ny, after: x, reason: walls first}
+    - {before: lid, after: x, reason: the lid comes pre-mounted}
+resources:
+  gripper: {stroke: 85, finger: {size: [20, 8, 30], friction: 1.0}, max_force: 40}
+  table: {size: [800, 800, 40]}
+"""
+
+
+def test_rules_that_together_box_a_part_in_are_all_named(tmp_path: Path) -> None:
+    """No rule alone contradicts the geometry; together they leave x no way in."""
+    product = _load_text(tmp_path, BOXED_IN)
+    with pytest.raises(PrecedenceConflictError,
+                       match=r"x cannot be placed: no insertion direction is free") as info:
+        _with_double(product)
+    assert {(r.before, r.after) for r in info.value.rules} == {
+        ("wall_px", "x"), ("wall_nx", "x"), ("wall_py", "x"), ("wall_ny", "x"), ("lid", "x")}
+    assert "along -z blocked by lid" in str(info.value)
+    # without the lid rule the box is open from above: x goes in before the lid
+    plan = _with_double(_load_text(tmp_path, BOXED_IN.replace(
+        "    - {before: lid, after: x, reason: the lid comes pre-mounted}\n", ""), "open.yaml"))
+    assert plan.best.order.index("x") < plan.best.order.index("lid")
+    assert all(s.order.index("x") < s.order.index("lid") for s in plan.sequences)
