@@ -66,6 +66,7 @@ from ..knowledge.errors import InputIssue, ProductError
 from ..knowledge.graphs import add_precedence, precedence_graph
 from ..knowledge.model import PrecedenceRule, Product
 from .blocking import BlockingTable, GeometryOracle, blocking_table, mate_insertion_direction
+from .errors import PlanningError
 
 COST_TERMS: tuple[str, ...] = ("reorientations", "direction_changes", "tool_changes", "travel_m",
                                "stability_risk")
@@ -195,7 +196,7 @@ def _rule_column(product: Product, rule: PrecedenceRule) -> int:
     return len(line) - len(stripped) + 1 if stripped else 0
 
 
-class NoFeasibleSequenceError(Exception):
+class NoFeasibleSequenceError(PlanningError):
     """No order assembles the product.
 
     Attributes
@@ -206,6 +207,8 @@ class NoFeasibleSequenceError(Exception):
         Why each remaining part cannot be added to it.
     """
 
+    kind = "no_feasible_sequence"
+
     def __init__(self, product: str, dead_end: Sequence[str], reasons: dict[str, str]):
         self.product = product
         self.dead_end = tuple(dead_end)
@@ -213,11 +216,11 @@ class NoFeasibleSequenceError(Exception):
         placed = ", ".join(self.dead_end) if self.dead_end else "nothing"
         lines = "; ".join(f"{p}: {r}" for p, r in sorted(self.reasons.items()))
         super().__init__(f'no feasible assembly sequence for "{product}": with {placed} placed '
-                         f"({len(self.dead_end)} parts), no further part can be added -- {lines}")
+                         f"({len(self.dead_end)} parts), no further part can be added -- {lines}",
+                         step=len(self.dead_end))
 
     def evidence(self) -> dict[str, Any]:
-        return {"kind": "no_feasible_sequence", "message": str(self),
-                "dead_end": list(self.dead_end), "reasons": self.reasons}
+        return {**super().evidence(), "dead_end": list(self.dead_end), "reasons": self.reasons}
 
 
 # ---------------------------------------------------------------------------------------------
