@@ -31,7 +31,7 @@ clearance), and the corner recess is ``r (1 / cos(pi / n) - 1)`` (the Hausdorff 
 hole wall). ``n`` is the smallest of ``GeometrySettings.convex_sides`` with
 
     c (1 / cos(pi / n) - 1) <= max(convex_play_fraction * c, convex_play_floor_m)   and
-    r (1 / cos(pi / n) - 1) <= convex_max_hausdorff_m.
+    (r + chamfer) (1 / cos(pi / n) - 1) <= convex_max_hausdorff_m.
 
 With the defaults (5 %, 1 um, 0.5 mm) a 10 mm hole gets 12 sides at 1 mm and 0.1 mm
 diametral clearance and 8 sides at 0.02 mm; the stated bound on the effective diametral
@@ -41,13 +41,20 @@ Measurement
 -----------
 Every convex and coarse model is measured against the exact solid:
 
-* Hausdorff distance between the model's surface (the manifold union of its pieces) and the
-  exact surface, from every vertex of each plus ``hausdorff_samples`` random surface points
-  (seeded), using exact point-to-triangle distances;
+* Hausdorff distance between the model's surface (the manifold union of its pieces, each
+  grown by 0.1 um so that touching pieces fuse) and the exact surface, sampled on the boundary
+  of their symmetric difference (all its vertices plus ``hausdorff_samples`` seeded points,
+  half of them where the surfaces part most) with exact point-to-triangle distances; the
+  maximum is found exactly at polygon corners and to within the sample spacing inside faces;
 * per hole, the effective diametral clearance: a probe pin of radius ``r - c`` is centred in
-  the hole and pushed sideways until contact (conservative advancement on the FCL distance)
-  in ``clearance_directions`` directions, refined around the extremes; the effective clearance
-  in a direction is the travel both ways. The error is the largest deviation from ``2 c``.
+  the hole over the middle half of its depth and pushed sideways until contact (bisection on
+  FCL's boolean collision to 0.1 nm) in ``clearance_directions`` directions, refined around
+  the extremes by golden-section search; the effective clearance in a direction is the travel
+  both ways. The error is the largest deviation from ``2 c``.
+
+The exact level is not measured: its error is the polygon bound (``exact_tolerance_m``) by
+construction. Mesh-file parts: exact = BVH of the mesh; convex = the sector hulls around
+their declared holes (parallel axes), else the hull; coarse = the hull.
 """
 
 from __future__ import annotations
@@ -221,7 +228,11 @@ def pin_pieces(pin: PinShape, tol_m: float) -> list[ConvexPiece]:
 # ---------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class HoleSides:
-    """The polygon chosen for one hole at the convex level."""
+    """The polygon chosen for one hole at the convex level.
+
+    ``radius_m`` is the largest inscribed radius of the hole's polygon (the hole radius plus
+    its mouth chamfer), which sets the corner recess ``hausdorff_m``.
+    """
 
     feature: str
     n_sides: int
@@ -603,7 +614,8 @@ def hole_sides(shape: PartShape, radial_clearance: dict[str, float], settings: G
     out = {}
     for h in shape.holes:
         c = radial_clearance.get(h.feature, 0.5 * settings.unmated_hole_clearance_m)
-        out[h.feature] = HoleSides(h.feature, convex_sides(h.radius_m, c, settings), h.radius_m, c)
+        outer = h.radius_m + h.chamfer_m  # the chamfer's mouth has the largest corner recess
+        out[h.feature] = HoleSides(h.feature, convex_sides(outer, c, settings), outer, c)
     return out
 
 
