@@ -45,7 +45,8 @@ class CollidingPair:
 
 
 class PlanningError(Exception):
-    """Base of all planning failures. ``step`` is the step index (0-based) or None."""
+    """Base of all planning failures. ``step`` is the step index (0-based) or None;
+    ``alternatives`` lists other part orders that were tried and how they failed."""
 
     kind = "planning"
 
@@ -53,10 +54,15 @@ class PlanningError(Exception):
         super().__init__(message)
         self.step = step
         self.part = part
+        self.alternatives: list[dict[str, Any]] = []  # other part orders tried, with failures
 
     def evidence(self) -> dict[str, Any]:
         """JSON-safe evidence of the failure."""
-        return {"kind": self.kind, "message": str(self), "step": self.step, "part": self.part}
+        out: dict[str, Any] = {"kind": self.kind, "message": str(self), "step": self.step,
+                               "part": self.part}
+        if self.alternatives:
+            out["alternatives"] = list(self.alternatives)
+        return out
 
 
 class StartInCollisionError(PlanningError):

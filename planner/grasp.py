@@ -8,7 +8,8 @@ search works on the part's surface, sampled with normals (any mesh: boxes, cylin
 composites with holes, imported meshes):
 
 1. closing axes: the knowledge hint's ``closing_axis``; the normals of large opposite planar
-   faces; the principal axes of the surface; for cylinders, radial directions every 45 deg;
+   faces; the part frame's axes and the principal axes of the surface; for cylinders, the
+   axis and radial directions every 45 deg;
 2. approach axes: perpendicular to the closing axis every 45 deg, starting from "down" at the
    start pose (and the hint's ``approach_axis``);
 3. offsets of the pad centre along the approach axis (steps of a sixth of the finger length)
@@ -26,10 +27,11 @@ opening clearance on both sides), any surface point inside the palm box.
 
 Ranking
 -------
-``cost = 10 [not the hint] + 2 [closing axis not the hint's] + com_offset / size
-+ 0.5 (1 - area / best area) + 0.25 (1 - down_start . approach) + 0.25 (1 - down_final .
-approach)``: knowledge hints first, then grasps centred on the centre of mass with a large
-contact area, coming from above at both poses. ``size`` is the part's bounding-box diagonal.
+``cost = 10 [not the hint] + 2 [closing axis not the hint's] + 1 [fingertips lead the part
+into its mate] + com_offset / size + 0.5 (1 - area / pad area) + 0.25 (1 - down_start .
+approach) + 0.25 (1 - down_final . approach)``: knowledge hints first, then grasps whose
+fingers stay behind the mating face, centred on the centre of mass, with a large contact
+area, coming from above at both poses. ``size`` is the part's bounding-box diagonal.
 
 Finger collisions with the partial assembly and the table at the start and final poses are
 judged by :func:`collision_free` with a checker supplied by :mod:`asmplan.planner.motion`.
@@ -149,7 +151,8 @@ def _geometric_axes(surface: GraspSurface, min_area_fraction: float) -> list[np.
         opposite = tuple((-keys[i]).tolist())
         if opposite in key_set and key_set[opposite] / total >= min_area_fraction:
             cands.append(_unit(keys[i].astype(float)))
-    if surface.kind != "cylinder":  # principal axes of the surface points
+    if surface.kind != "cylinder":  # the part's own axes, then principal axes of its surface
+        cands.extend(np.eye(3))
         pts = surface.points_m - surface.points_m.mean(axis=0)
         _, vecs = np.linalg.eigh(pts.T @ pts)
         cands.extend(_unit(vecs[:, k]) for k in (2, 1, 0))
@@ -173,6 +176,8 @@ def iter_grasps(
     down_start_part: np.ndarray | None = None,
     down_final_part: np.ndarray | None = None,
     min_overlap_m: float = 3e-3,
+    insertion_part: np.ndarray | None = None,
+    lead_limit_m: float | None = None,
 ) -> Iterator[Grasp]:
     """Antipodal grasps of one part in increasing cost (see the module docstring), lazily.
 
@@ -198,13 +203,17 @@ def iter_grasps(
         World "down" (-z) expressed in the part frame at the start and final poses.
     min_overlap_m : float
         Smallest overlap of a pad with the part along the approach axis, m.
+    insertion_part, lead_limit_m : (3,) float array and float, optional
+        The insertion direction in the part frame and how far along it (from the centre of
+        mass, m) the fingers may reach: grasps whose fingertips would lead the part into its
+        mate (reach past the pin roots, or past a hole part's leading face) cost 1 more.
 
     Yields
     ------
     Grasp
         In increasing cost; ties broken by generation order (deterministic).
     """
-    W, _, L = (float(v) for v in gripper.finger_size_m)
+    W, T_f, L = (float(v) for v in gripper.finger_size_m)
     palm = np.asarray(gripper.palm_size_m, float)
     mu = float(gripper.finger_friction) * float(part_friction)
     cos_cone = math.cos(math.atan(mu)) if mu > 0 else 1.0
@@ -272,12 +281,21 @@ def iter_grasps(
                 us = sorted({0.0, round(xlo + _EDGE_INSET_M + W / 2, 9),
                              round(xhi - _EDGE_INSET_M - W / 2, 9)}, key=lambda u: (abs(u), u))
             centres.extend((u, v) for v in vs for u in us)
+            # how far the finger boxes reach along the insertion direction, per unit offset
+            reach = None
+            if insertion_part is not None and lead_limit_m is not None:
+                ins = _unit(insertion_part)
+                reach = (abs(float(x @ ins)) * W / 2 + abs(float(c @ ins)) * (max_width / 2 + T_f)
+                         + abs(float(a @ ins)) * L / 2)
             for u, v in centres:
-                todo.append((base + area_floor + math.hypot(u, v) / size, len(todo), fi, u, v,
-                             is_hint, base + math.hypot(u, v) / size))
+                known = base + math.hypot(u, v) / size
+                if reach is not None and float((u * x + v * a) @ ins) + reach > lead_limit_m:
+                    known += 1.0
+                todo.append((known + area_floor, len(todo), fi, u, v, is_hint, known))
     todo.sort(key=lambda t: (t[0], t[1]))
     heap: list[tuple[float, int, tuple[Any, ...], bool]] = []
     strips: dict[tuple[int, float], tuple[_Strip, _Strip]] = {}
+    sorted_frames: dict[int, _Frame] = {}
 
     def make(item: tuple[float, int, tuple[Any, ...], bool]) -> Grasp:
         cost, _, (T, width, open_width, area, offset), hinted = item
@@ -289,7 +307,10 @@ def iter_grasps(
             yield make(heapq.heappop(heap))
         x, c, a, XYZ, _ = frames[fi]
         if (fi, u) not in strips:
-            strips[fi, u] = (_Strip(XYZ, N, u, W / 2), _Strip(XYZ, N, u, palm[0] / 2))
+            if fi not in sorted_frames:
+                sorted_frames[fi] = _Frame(XYZ, N)
+            f = sorted_frames[fi]
+            strips[fi, u] = (_Strip(f, u, W / 2), _Strip(f, u, palm[0] / 2))
         pad, palm_strip = strips[fi, u]
         g = _evaluate(pad, palm_strip, x, c, a, com, u, v, L, palm, cos_cone, max_width,
                       float(gripper.stroke_m), finger_clearance_m, surface.area_per_point_m2,
@@ -314,16 +335,26 @@ class _Strip:
 
     __slots__ = ("N", "Y", "Z")
 
-    def __init__(self, XYZ: np.ndarray, N: np.ndarray, u: float, half_width: float) -> None:
-        keep = np.flatnonzero(np.abs(XYZ[0] - u) <= half_width)
-        order = keep[np.argsort(XYZ[2, keep], kind="stable")]
-        self.Z = XYZ[2, order]
-        self.Y = XYZ[1, order]
-        self.N = N[order]
+    def __init__(self, frame: _Frame, u: float, half_width: float) -> None:
+        keep = np.abs(frame.X - u) <= half_width
+        self.Z = frame.Z[keep]
+        self.Y = frame.Y[keep]
+        self.N = frame.N[keep]
 
     def window(self, z_lo: float, z_hi: float) -> slice:
         return slice(int(np.searchsorted(self.Z, z_lo, side="left")),
                      int(np.searchsorted(self.Z, z_hi, side="right")))
+
+
+class _Frame:
+    """Surface points projected on one candidate gripper frame, sorted by z (approach)."""
+
+    __slots__ = ("N", "X", "Y", "Z")
+
+    def __init__(self, XYZ: np.ndarray, N: np.ndarray) -> None:
+        order = np.argsort(XYZ[2], kind="stable")
+        self.X, self.Y, self.Z = XYZ[0, order], XYZ[1, order], XYZ[2, order]
+        self.N = N[order]
 
 
 def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,

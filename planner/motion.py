@@ -581,8 +581,9 @@ class BroadPhaseValidity:
     """Validity of a TCP pose for OMPL: the carried bodies against the obstacles, in the
     tiers of :meth:`Scene.hits` (boxes, coarse models, planning level).
 
-    The obstacles do not move during a step, so their boxes are stacked once and the box
-    tier is a handful of vectorised operations.
+    The obstacles do not move during a step, so their boxes are stacked once. A carried
+    body's box (centre ``c``, half extents ``h`` in the TCP frame) at rotation ``R`` has the
+    world box ``R c + t +- |R| h``: the box tier is a few small array operations.
     """
 
     def __init__(self, scene: Scene, carried: Sequence[tuple[str, np.ndarray]],
@@ -592,18 +593,24 @@ class BroadPhaseValidity:
         self.obstacles = list(obstacles)
         boxes = np.array([scene.world.aabb(o) for o in self.obstacles])  # (k, 2, 3)
         self.lo, self.hi = boxes[:, 0], boxes[:, 1]
-        # every carried body's box corners in the TCP frame, stacked (m * 8, 3)
-        self.corners = np.concatenate([scene.corners[n] @ Tb[:3, :3].T + Tb[:3, 3]
-                                       for n, Tb in self.carried])
-        self.m = len(self.carried)
+        centres, halves = [], []
+        for n, Tb in self.carried:
+            c = scene.corners[n] @ Tb[:3, :3].T + Tb[:3, 3]  # body box corners, TCP frame
+            lo, hi = c.min(axis=0), c.max(axis=0)
+            centres.append(0.5 * (lo + hi))
+            halves.append(0.5 * (hi - lo))
+        self.centres = np.array(centres)  # (m, 3)
+        self.halves = np.array(halves)
         self.calls = 0
         self.narrow = 0
 
     def __call__(self, T: np.ndarray) -> bool:
         self.calls += 1
-        w = (self.corners @ T[:3, :3].T + T[:3, 3]).reshape(self.m, 8, 3)
-        lo, hi = w.min(axis=1), w.max(axis=1)
-        over = ((lo[:, None, :] <= self.hi[None]) & (self.lo[None] <= hi[:, None, :])).all(axis=2)
+        R = T[:3, :3]
+        c = self.centres @ R.T + T[:3, 3]
+        h = self.halves @ np.abs(R).T
+        over = ((c - h)[:, None, :] <= self.hi) & (self.lo <= (c + h)[:, None, :])
+        over = over.all(axis=2)
         if not over.any():
             return True
         self.narrow += 1
@@ -706,7 +713,8 @@ def certify_path(scene: Scene, poses: np.ndarray, carried: Sequence[tuple[str, n
 # ---------------------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class StepTiming:
-    """Wall-clock times of one step's planning, s (not part of the plan file)."""
+    """Times of one step's planning, s (not part of the plan file): wall-clock in total and
+    per stage, and the process CPU time in total (less sensitive to a busy machine)."""
 
     part: str
     total_s: float
@@ -715,15 +723,17 @@ class StepTiming:
     check_s: float = 0.0
     grasps_tried: int = 0
     poses_certified: int = 0
+    cpu_s: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
 class PlanResult:
-    """A plan and how long it took (per step and total, s)."""
+    """A plan and how long it took: per step, in total and for the part geometry (s)."""
 
     plan: Plan
     step_times: tuple[StepTiming, ...]
     total_s: float
+    geometry_s: float = 0.0
 
 
 class _GraspFailed(Exception):
@@ -761,6 +771,13 @@ class MotionPlanner:
         self.placed: list[str] = [n for n in product.part_names if product.is_fixtured(n)]
         self._check_layout()
 
+    def place(self, part: str) -> None:
+        """Record ``part`` as assembled (used to set up a partial assembly, e.g. by the
+        benchmark); planning a step does this itself."""
+        if part not in self.placed:
+            self.placed.append(part)
+        self.scene.set_part_pose(part, self.product.T_world_assembled(part))
+
     def _check_layout(self) -> None:
         names = [TABLE, *self.product.part_names]
         contacts = self.scene.world.contacts(names, names, self.settings.contact_tolerance_m)
@@ -786,6 +803,7 @@ class MotionPlanner:
         """Plan the step that inserts ``part`` into the current partial assembly; on success
         the part is recorded as placed."""
         t_start = time.perf_counter()
+        c_start = time.process_time()
         product, settings, scene = self.product, self.settings, self.scene
         if product.is_fixtured(part):
             T = product.T_world_assembled(part)
@@ -793,7 +811,8 @@ class MotionPlanner:
                         start_note="held by a fixture in its assembled pose from the start")
             if part not in self.placed:
                 self.placed.append(part)
-            return step, StepTiming(part, time.perf_counter() - t_start)
+            return step, StepTiming(part, time.perf_counter() - t_start,
+                                    cpu_s=time.process_time() - c_start)
         data = self.parts[part]
         clamp = clamp_force(product, part, data.mass_kg, step=index)
         spec = insertion_spec(product, part, self.placed, fallback_direction, index)
@@ -812,11 +831,19 @@ class MotionPlanner:
         t_g = time.perf_counter()
         down_s = T_start[:3, :3].T @ -_Z
         down_f = T_final[:3, :3].T @ -_Z
+        # fingers should stay behind the mating face: the pin roots of a pin part, the
+        # leading face of a hole part (or of a part placed without a mate)
+        ins_part = T_final[:3, :3].T @ spec.direction
+        lead = float(((data.points_m - data.com_m) @ ins_part).max())
+        if spec.kind == "insert" and any(r.pin_part == part for r in spec.regions):
+            lead -= spec.length_m
         candidates = iter_grasps(part, data.surface, product.resources.gripper,
                                  product.part(part).handling.grasp,
                                  part_friction=product.part(part).friction,
                                  finger_clearance_m=settings.finger_clearance_m,
-                                 down_start_part=down_s, down_final_part=down_f)
+                                 down_start_part=down_s, down_final_part=down_f,
+                                 insertion_part=ins_part,
+                                 lead_limit_m=lead - product.process.position_tolerance_m)
         rejected = Rejections()
         failures: list[_GraspFailed] = []
         ompl_s = check_s = grasp_s = 0.0
@@ -840,7 +867,7 @@ class MotionPlanner:
             self.placed.append(part)
             scene.set_part_pose(part, T_final)
             timing = StepTiming(part, time.perf_counter() - t_start, grasp_s, ompl_s, check_s,
-                                len(failures) + 1, checked)
+                                len(failures) + 1, checked, time.process_time() - c_start)
             return step, timing
         scene.set_part_pose(part, T_start)
         first_path = next((f.error for f in failures if isinstance(f.error, NoPathError)), None)
@@ -1183,12 +1210,47 @@ def initial_layout(product: Product, parts: dict[str, PartData]
 ProgressFn = Callable[[int, int, str, str], None]
 
 
+@dataclass(frozen=True, eq=False)
+class SequenceChoice:
+    """A part order to plan, where it came from, and the insertion direction (3,) the
+    sequence planner chose per part (used for parts without a mate to the partial assembly).
+    """
+
+    order: tuple[str, ...]
+    note: str = ""
+    insertions: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def ranked_sequences(product: Product) -> list[SequenceChoice]:
+    """The sequence planner's ranked orders, best first."""
+    from .sequence import plan_sequence
+
+    sp = plan_sequence(product)
+    return [SequenceChoice(tuple(r.order),
+                           f"sequence planner: rank {r.rank} of {len(sp.sequences)} "
+                           f"({sp.method}), cost {r.cost_s:.2f} s",
+                           {s.part: np.asarray(s.insertion, float) for s in r.steps})
+            for r in sp.sequences]
+
+
+def best_sequence(product: Product) -> tuple[list[str], str, dict[str, np.ndarray]]:
+    """The sequence planner's best order, a note on it, and its insertion directions."""
+    best = ranked_sequences(product)[0]
+    return list(best.order), best.note, dict(best.insertions)
+
+
 def plan_product(product: Product, settings: PlannerSettings | None = None, *,
                  sequence: Sequence[str] | None = None, sequence_note: str = "",
                  insertions: dict[str, np.ndarray] | None = None,
+                 sequences: Sequence[SequenceChoice] | None = None,
                  parts: dict[str, PartData] | None = None, progress: ProgressFn | None = None,
                  direct_insertion: bool = False) -> PlanResult:
-    """Plan every step of ``product`` in ``sequence`` (default: the sequence planner's best).
+    """Plan every step of ``product``.
+
+    The order is ``sequence`` when given; otherwise the ranked ``sequences`` (default: the
+    sequence planner's, :func:`ranked_sequences`) are tried best first and the first that
+    can be planned is used (the sequence planner does not know the gripper: a part may be
+    reachable only before another one closes the space around it).
 
     Parameters
     ----------
@@ -1197,11 +1259,13 @@ def plan_product(product: Product, settings: PlannerSettings | None = None, *,
     sequence : sequence of str, optional
         Part order; fixtured parts may appear anywhere (they are in place from the start).
     sequence_note : str
-        Where the order came from (stored in the plan).
+        Where ``sequence`` came from (stored in the plan).
     insertions : dict, optional
-        Insertion direction (3,) per part for parts without a mate to the partial assembly
-        (the sequence planner's choice).
+        Insertion direction (3,) per part, for parts without a mate to the partial assembly.
+    sequences : sequence of SequenceChoice, optional
+        Ranked orders to try when ``sequence`` is not given.
     parts : dict of PartData, optional
+        Part geometry (default: computed from :class:`asmplan.parts.models.ProductGeometry`).
     progress : callable, optional
         ``progress(step_index, n_steps, part, status)`` with status "start" or "done".
     direct_insertion : bool
@@ -1210,43 +1274,62 @@ def plan_product(product: Product, settings: PlannerSettings | None = None, *,
     Raises
     ------
     PlanningError
-        A typed failure with evidence (see :mod:`asmplan.planner.errors`).
+        A typed failure with evidence (see :mod:`asmplan.planner.errors`). When several ranked
+        orders were tried, the best-ranked one's failure is raised and ``alternatives`` lists
+        the others' failures.
     """
     settings = settings or PlannerSettings()
     t0 = time.perf_counter()
-    if sequence is None:
-        sequence, sequence_note, insertions = best_sequence(product)
-    missing = set(product.part_names) - set(sequence)
-    if missing or len(sequence) != len(product.part_names):
+    if parts is None:
+        parts = part_data(product, settings)
+    geometry_s = time.perf_counter() - t0
+    if sequence is not None:
+        choices = [SequenceChoice(tuple(sequence), sequence_note, dict(insertions or {}))]
+    else:
+        choices = list(sequences) if sequences is not None else ranked_sequences(product)
+    failures: list[tuple[SequenceChoice, PlanningError]] = []
+    for choice in choices:
+        try:
+            plan, times = _plan_order(product, settings, choice, parts, progress,
+                                      direct_insertion, len(failures))
+        except PlanningError as exc:
+            failures.append((choice, exc))
+            continue
+        return PlanResult(plan, times, time.perf_counter() - t0, geometry_s)
+    if not failures:
+        raise ValueError("sequences: expected at least one order to plan, found none")
+    first = failures[0][1]
+    first.alternatives = [{"order": list(c.order), "note": c.note, "failure": str(e)}
+                          for c, e in failures[1:]]
+    raise first
+
+
+def _plan_order(product: Product, settings: PlannerSettings, choice: SequenceChoice,
+                parts: dict[str, PartData], progress: ProgressFn | None,
+                direct_insertion: bool, failed_before: int) -> tuple[Plan, tuple[StepTiming, ...]]:
+    sequence = list(choice.order)
+    if sorted(sequence) != sorted(product.part_names):
         raise ValueError(f"sequence: expected every part once ({', '.join(product.part_names)}), "
-                         f"found {list(sequence)}")
+                         f"found {sequence}")
     planner = MotionPlanner(product, settings, parts, direct_insertion=direct_insertion)
     steps: list[Step] = []
     times: list[StepTiming] = []
     for k, name in enumerate(sequence):
         if progress is not None:
             progress(k, len(sequence), name, "start")
-        fallback = None if insertions is None else insertions.get(name)
-        step, timing = planner.plan_step(k, name, fallback)
+        step, timing = planner.plan_step(k, name, choice.insertions.get(name))
         steps.append(step)
         times.append(timing)
         if progress is not None:
             progress(k, len(sequence), name, "done")
+    note = choice.note
+    if failed_before:
+        note += (f"; {failed_before} better-ranked order{'s' if failed_before > 1 else ''} "
+                 "could not be planned")
     plan = Plan(product=product.name, source=str(product.source),
                 source_sha256=_sha256(product.source), sequence=tuple(sequence),
-                steps=tuple(steps), settings=settings, sequence_note=sequence_note)
-    return PlanResult(plan, tuple(times), time.perf_counter() - t0)
-
-
-def best_sequence(product: Product) -> tuple[list[str], str, dict[str, np.ndarray]]:
-    """The sequence planner's best order, a note on it, and its insertion directions."""
-    from .sequence import plan_sequence
-
-    sp = plan_sequence(product)
-    best = sp.best
-    note = (f"sequence planner: rank {best.rank} of {len(sp.sequences)} "
-            f"({sp.method}), cost {best.cost_s:.2f} s")
-    return list(best.order), note, {s.part: np.asarray(s.insertion, float) for s in best.steps}
+                steps=tuple(steps), settings=settings, sequence_note=note)
+    return plan, tuple(times)
 
 
 def _sha256(path: Path) -> str:

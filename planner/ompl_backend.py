@@ -164,6 +164,7 @@ def plan_se3(
     seed: int = 0,
     resolution_m: float = 2e-3,
     simplify: bool = True,
+    try_direct: bool = True,
 ) -> OmplResult:
     """Plan a rigid-body path in SE(3) from ``T_start`` to ``T_goal``.
 
@@ -187,6 +188,11 @@ def plan_se3(
     simplify : bool
         Shortcut the path: ``reduceVertices``, ``collapseCloseVertices``, ``reduceVertices``
         (deterministic for a given seed).
+    try_direct : bool
+        First ask OMPL's motion validator (``SpaceInformation.checkMotion``, at
+        ``resolution_m``) whether the straight SE(3) motion from start to goal is valid; if so
+        that is the path (status "direct motion valid") and no search is run. Easy queries
+        then cost one motion check instead of a search and its simplification.
 
     Returns
     -------
@@ -230,6 +236,14 @@ def plan_se3(
         ss.setStartAndGoalStates(start, goal)
         ss.setPlanner(PLANNERS[planner](si))
         t0 = time.perf_counter()
+        if try_direct:
+            si.setup()  # start and goal are set: safe (see the module docstring)
+            if si.isValid(start) and si.checkMotion(start, goal):
+                return OmplResult(solved=True, status="direct motion valid",
+                                  poses=np.array([np.asarray(T_start, dtype=float).copy(),
+                                                  np.asarray(T_goal, dtype=float).copy()]),
+                                  planning_time_s=time.perf_counter() - t0,
+                                  validity_checks=calls[0], planner=planner)
         status = ss.solve(ob.timedPlannerTerminationCondition(float(time_budget_s)))
         solved = bool(ss.haveExactSolutionPath())
         poses: list[np.ndarray] = []

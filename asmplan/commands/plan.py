@@ -94,6 +94,8 @@ def _evidence_lines(evidence: dict[str, Any]) -> list[str]:
         lines.append(f"  contact: {p['a']} / {p['b']}{depth}{point}")
     for r in evidence.get("reasons") or []:
         lines.append(f"  - {r}")
+    for alt in evidence.get("alternatives") or []:
+        lines.append(f"  also tried {' > '.join(alt['order'])}: {alt['failure']}")
     path = evidence.get("partial_path_T_world_gripper")
     if path:
         last = path[-1]
@@ -121,13 +123,15 @@ def summary_table(plan: Plan, step_ms: list[float]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..planner.motion import best_sequence, plan_product
+    from ..planner.motion import plan_product, ranked_sequences
     from ..planner.sequence import NoFeasibleSequenceError
 
     product = load_product(args.product)
     settings = PlannerSettings(planner=args.planner, time_budget_s=args.time_budget,
                                seed=args.seed, collision_level=args.level)
-    insertions = None
+    choices = None
+    order = None
+    note = ""
     if args.sequence:
         order = [s.strip() for s in args.sequence.split(",") if s.strip()]
         unknown = [s for s in order if s not in product.part_names]
@@ -139,14 +143,14 @@ def run(args: argparse.Namespace) -> int:
         note = "given on the command line"
     else:
         try:
-            order, note, insertions = best_sequence(product)
+            choices = ranked_sequences(product)
         except NoFeasibleSequenceError as exc:
             print(f"asmplan plan: no feasible sequence: {exc}", file=sys.stderr)
             return 1
     progress = Progress(sys.stderr)
     try:
         result = plan_product(product, settings, sequence=order, sequence_note=note,
-                              insertions=insertions, progress=progress)
+                              sequences=choices, progress=progress)
     except PlanningError as exc:
         if progress.tty:
             sys.stderr.write("\n")
@@ -157,7 +161,8 @@ def run(args: argparse.Namespace) -> int:
     result.plan.write(args.output)
     ms = [t.total_s * 1e3 for t in result.step_times]
     print(f"{product.name}: {len(result.plan.steps)} steps planned in {result.total_s:.2f} s "
-          f"({note}); plan written to {args.output}")
+          f"(part geometry {result.geometry_s:.2f} s; order: {result.plan.sequence_note}); "
+          f"plan written to {args.output}")
     print(summary_table(result.plan, ms))
     for s in result.plan.steps:
         for n in (s.start_note, *s.notes):

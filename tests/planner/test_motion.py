@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 
 import numpy as np
 import pytest
@@ -204,3 +205,29 @@ def test_direct_insertion_baseline_does_not_reach_the_hole_quickly(examples, geo
                      parts=geometry_cache.parts(product), direct_insertion=True)
     assert plan_product(product, settings, sequence=ORDERS["peg_in_hole"],
                         parts=geometry_cache.parts(product)).plan.steps[1].kind == "insert"
+
+
+def test_ompl_search_is_seeded():
+    """A wall with a window forces a search (the straight motion is blocked): the same seed
+    gives the same path, another seed another one; both pass through the window."""
+    from asmplan.planner.ompl_backend import SE3Bounds, plan_se3
+
+    def valid(T: np.ndarray) -> bool:
+        x, y, z = T[:3, 3]
+        in_wall = abs(x) < 0.01
+        in_window = abs(y - 0.1) < 0.03 and abs(z - 0.15) < 0.03
+        return not in_wall or in_window
+
+    bounds = SE3Bounds(np.array([-0.2, -0.2, 0.0]), np.array([0.2, 0.2, 0.3]))
+    start, goal = make_T((-0.15, 0.0, 0.05)), make_T((0.15, 0.0, 0.05))
+    a = plan_se3(valid, start, goal, bounds, seed=1, time_budget_s=5.0)
+    b = plan_se3(valid, start, goal, bounds, seed=1, time_budget_s=5.0)
+    c = plan_se3(valid, start, goal, bounds, seed=2, time_budget_s=5.0)
+    assert a.solved and b.solved and c.solved and a.status != "direct motion valid"
+    np.testing.assert_array_equal(a.poses, b.poses)
+    assert a.poses.shape != c.poses.shape or not np.array_equal(a.poses, c.poses)
+    for path in (a.poses, c.poses):
+        for p0, p1 in itertools.pairwise(path[:, :3, 3]):
+            if (p0[0] < 0) != (p1[0] < 0):  # where the leg crosses the wall's mid-plane
+                q = p0 + (p1 - p0) * (-p0[0] / (p1[0] - p0[0]))
+                assert abs(q[1] - 0.1) < 0.03 and abs(q[2] - 0.15) < 0.03
