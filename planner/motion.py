@@ -798,10 +798,11 @@ class MotionPlanner:
         return SE3Bounds(lo, hi)
 
     # -- one step ---------------------------------------------------------------------------
-    def plan_step(self, index: int, part: str, fallback_direction: np.ndarray | None = None
-                  ) -> tuple[Step, StepTiming]:
+    def plan_step(self, index: int, part: str, fallback_direction: np.ndarray | None = None,
+                  grasp: Grasp | None = None) -> tuple[Step, StepTiming]:
         """Plan the step that inserts ``part`` into the current partial assembly; on success
-        the part is recorded as placed."""
+        the part is recorded as placed. ``grasp`` restricts the search to that grasp (the
+        benchmark's baseline uses the grasp of the real plan)."""
         t_start = time.perf_counter()
         c_start = time.process_time()
         product, settings, scene = self.product, self.settings, self.scene
@@ -844,6 +845,8 @@ class MotionPlanner:
                                  down_start_part=down_s, down_final_part=down_f,
                                  insertion_part=ins_part,
                                  lead_limit_m=lead - product.process.position_tolerance_m)
+        if grasp is not None:
+            candidates = iter([grasp])
         rejected = Rejections()
         failures: list[_GraspFailed] = []
         ompl_s = check_s = grasp_s = 0.0
