@@ -1022,11 +1022,12 @@ class MotionPlanner:
         path = None
         partial = np.array([G_lift])
         pairs_seen: list[CollidingPair] = []
+        direct = True
         for attempt in range(settings.replan_attempts + 1):
             res = plan_se3(valid, G_lift, goal, bounds, planner=settings.planner,
                            time_budget_s=settings.time_budget_s,
                            seed=settings.seed + 1009 * index + 101 * grasp_rank + attempt,
-                           resolution_m=resolution)
+                           resolution_m=resolution, try_direct=direct)
             ompl_s += res.planning_time_s
             if not res.solved:
                 last_reason = (f"{settings.planner} found no path from the lifted pose to the "
@@ -1047,6 +1048,7 @@ class MotionPlanner:
             partial = res.poses[: cert.leg + 1]
             pairs_seen = list(cert.pairs)
             resolution /= 2
+            direct = direct and len(res.poses) > 2  # the straight motion is known to collide
         scene.set_part_pose(part, T_start)
         if path is None:
             err = NoPathError(index, part, partial, last_reason, pairs_seen)

@@ -195,6 +195,7 @@ def test_dense_recheck_finds_a_collision_in_a_corrupted_plan(examples, geometry_
     assert GRIPPER_CLOSED  # the closed gripper body is part of the check
 
 
+@pytest.mark.slow
 def test_direct_insertion_baseline_does_not_reach_the_hole_quickly(examples, geometry_cache):
     """Planning straight into the hole (no pre-insertion pose) is the benchmark's baseline:
     with a 17 um fit it finds no path within a short budget, while the planner succeeds."""
@@ -231,3 +232,37 @@ def test_ompl_search_is_seeded():
             if (p0[0] < 0) != (p1[0] < 0):  # where the leg crosses the wall's mid-plane
                 q = p0 + (p1 - p0) * (-p0[0] / (p1[0] - p0[0]))
                 assert abs(q[1] - 0.1) < 0.03 and abs(q[2] - 0.15) < 0.03
+
+
+def test_missing_start_pose_gets_a_free_table_spot(examples, geometry_cache):
+    product = examples["pinhole_station"]
+    parts = tuple(dataclasses.replace(p, T_world_start=np.full((4, 4), np.nan))
+                  if p.name == "part4" else p for p in product.parts)
+    nostart = dataclasses.replace(product, parts=parts)
+    result = plan_product(nostart, PlannerSettings(), sequence=ORDERS["pinhole_station"],
+                          parts=geometry_cache.parts(product))
+    step = result.plan.step("part4")
+    assert step.start_note.startswith("no start pose given: placed on the table")
+    # assembled orientation, lowest point (the pins' tips) on the table top
+    np.testing.assert_allclose(step.T_world_start[:3, :3],
+                               product.T_world_assembled("part4")[:3, :3], atol=1e-12)
+    pts = geometry_cache.parts(product)["part4"].points_m
+    lowest = (pts @ step.T_world_start[:3, :3].T + step.T_world_start[:3, 3])[:, 2].min()
+    assert lowest == pytest.approx(0.0, abs=1e-9)
+    # beside the product, clear of it: the spot is on the -y side of part1
+    assert step.T_world_start[1, 3] < -0.04
+
+
+def test_too_heavy_part_is_a_grip_failure_with_numbers(examples, geometry_cache):
+    from asmplan.planner.errors import GripInfeasibleError
+
+    product = examples["pinhole_station"]
+    parts = dict(geometry_cache.parts(product))
+    parts["part3"] = dataclasses.replace(parts["part3"], mass_kg=2.0)
+    with pytest.raises(GripInfeasibleError, match=r"step 2 \(part \"part3\"\).*needs 52\.49 N") \
+            as err:
+        plan_product(product, PlannerSettings(), sequence=ORDERS["pinhole_station"],
+                     parts=parts)
+    # 2 x 2.0 kg x (9.81 + 2.0) / (2 x 1.0 x 0.45) = 52.5 N > 40 N
+    assert err.value.required_N == pytest.approx(2 * 2.0 * 11.81 / 0.9, rel=1e-9)
+    assert err.value.limit_N == 40.0

@@ -108,3 +108,24 @@ def test_cli_bad_input_exits_2(tmp_path, capsys):
     assert main(["plan", str(example_path("peg_in_hole")), "--sequence", "peg,nope",
                  "-o", str(tmp_path / "p.json")]) == 2
     assert "expected every part" in capsys.readouterr().err
+
+
+def test_progress_bar_on_a_terminal_and_lines_otherwise():
+    import io
+
+    from asmplan.commands.plan import Progress
+
+    class Tty(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    tty, plain = Tty(), io.StringIO()
+    for stream in (tty, plain):
+        p = Progress(stream)
+        for k, part in enumerate(("a", "b")):
+            p(k, 2, part, "start")
+            p(k, 2, part, "done")
+    assert tty.getvalue().count("\r[") == 4 and tty.getvalue().endswith("\n")
+    assert "[########################] 2/2" in tty.getvalue()
+    lines = plain.getvalue().splitlines()
+    assert len(lines) == 2 and lines[1].startswith("planned step 2/2: b (")
