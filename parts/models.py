@@ -87,16 +87,16 @@ class ProductGeometry:
         """Fitted diameters of all mated features."""
         return fitted_sizes(self.product)
 
-    def _input_error(self, part: str, message: str) -> ProductError:
+    def _input_error(self, part: str, message: str, key: str | None = "file") -> ProductError:
         idx = self.product.part_names.index(part)
-        path = ("parts", idx, "geometry", "file")
+        path: tuple[str | int, ...] = ("parts", idx, "geometry") + ((key,) if key else ())
         try:
             from ..knowledge.yamlsource import load_located
 
             return ProductError([load_located(self.product.source).issue(path, message)])
         except ProductError:
-            return ProductError([InputIssue(str(self.product.source), 0, 0, f"parts[{idx}].geometry.file",
-                                            message)])
+            where = f"parts[{idx}].geometry" + (f".{key}" if key else "")
+            return ProductError([InputIssue(str(self.product.source), 0, 0, where, message)])
 
     # -- solids ---------------------------------------------------------------------------------
     def shape(self, part: str) -> PartShape:
@@ -254,7 +254,7 @@ class ProductGeometry:
             try:
                 self.collision_model(name, level)
             except GeometryError as exc:
-                raise self._input_error(name, str(exc)) from None
+                raise self._input_error(name, str(exc), key=None) from None
         return dict(self.timings_s)
 
 
