@@ -212,3 +212,13 @@ def test_exact_model_of_a_part_with_holes_needs_its_solid():
     shape, _body, _hole = _box_with_hole((0.04, 0.04, 0.02), (0, 0), 0.005, 0.01, 0.0, False, 0)
     with pytest.raises(ValueError, match="needs its solid"):
         exact_model(shape, SETTINGS)
+
+
+def test_unmeasured_model_has_the_same_pieces_without_the_cost(examples):
+    g = ProductGeometry(examples["gear_unit"])
+    raw = g.collision_model("wheel", "convex", measured=False)
+    assert raw.hausdorff_m == 0.0
+    assert "report_convex" not in {k for k, _ in g._cache}  # nothing measured yet
+    measured = g.collision_model("wheel", "convex")
+    assert measured.pieces is raw.pieces
+    assert measured.hausdorff_m > 0
