@@ -231,7 +231,7 @@ class ProductGeometry:
         if level not in LEVELS:
             raise ValueError(f"level: expected one of {', '.join(LEVELS)}, found {level!r}")
         if level == "exact" or not measured:
-            return self._raw_model(part, "exact")
+            return self._raw_model(part, level)
         return self._get(f"model_{level}", part,
                          lambda: with_errors(self._raw_model(part, level), self.level_report(part, level)))
 
