@@ -1,0 +1,667 @@
+"""Which bodies one simulated step needs, at which level of detail, and why.
+
+:func:`select_scene` decides, for one :class:`~asmplan.planner.plan.Step` of a plan, which
+bodies go into its PyBullet world; :func:`build_scene` creates them in a
+:class:`~asmplan.sim.bullet.BulletWorld`. The selection is a plain record
+(:class:`StepScene`: one :class:`SceneBody` per body with its role, level, static/dynamic and
+the reason, plus every part left out with the reason), so reports and tests can show it.
+
+Roles
+-----
+``held``
+    The part the step moves, at the step's start pose, dynamic.
+``mate``
+    A part already in place that the held part mates with (a pin of one in a hole of the
+    other). Dynamic unless fixtured, so that the insertion pushes a real body (its reaction,
+    friction and seating are physical, not those of an immovable wall).
+``touching``
+    A part already in place that the held part touches when seated (distance at most
+    :attr:`SceneSettings.touch_tolerance_m`), without a mate. Dynamic unless fixtured.
+``support``
+    A part in place that touches a dynamic ``mate``/``touching`` body: what it rests on. Static
+    (one level of dynamics: the bodies under the partner do not move).
+``obstacle``
+    Any other part (in place, or still waiting at its start pose) whose bounding box comes
+    within :attr:`SceneSettings.include_margin_m` of the space swept by the held part and the
+    open gripper over the whole trajectory. Static. Within
+    :attr:`SceneSettings.near_margin_m` it gets the detailed level, beyond that the coarse
+    one (one convex hull: bigger than the part, so a coarse obstacle can report a false
+    contact, never miss one).
+``table``
+    The work table (top face z = 0), static, always present.
+``nest``
+    A static tray nest under the held part when it does not rest on the table with its
+    largest downward face (e.g. pins pointing down hold it above the table): boxes under that
+    face from the table top up to it, with pockets (``nest_clearance_m`` wide) around every
+    piece that protrudes below the face, so the part rests flat until clamped.
+
+Fixtured parts are static (mass 0: the fixture holds them); the fixture itself is not
+modelled as a body. Everything else is left out (``cull=False`` keeps every part as an
+obstacle instead, for comparison).
+
+Levels of detail
+----------------
+Bodies are built from the :class:`~asmplan.parts.pieces.ConvexPiece` tuples of
+:class:`~asmplan.parts.models.ProductGeometry` at ``fidelity.geometry_lod``, with two rules:
+
+* "exact" models of parts with holes are triangle meshes, which PyBullet cannot use for a
+  dynamic body; those parts use the "convex" level (holes as exact polygons whose inscribed
+  circle is the nominal hole, see :mod:`asmplan.parts.lod`). Holes are never V-HACD blobs.
+* the held part, its mates, touching parts and supports need their features: "coarse" (one
+  hull: holes filled, pins bridged) is raised to "convex" for them when it differs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from asmplan.knowledge.frames import invert
+from asmplan.knowledge.model import Gripper as GripperResource
+from asmplan.knowledge.model import Product
+from asmplan.parts.collision import CollisionWorld
+from asmplan.parts.pieces import CollisionModel, ConvexPiece, LevelOfDetail
+from asmplan.planner.motion import gripper_model, table_model
+from asmplan.planner.plan import Plan, Step
+from asmplan.planner.trajectory import OPEN_PHASES
+from asmplan.sim.bullet import BulletWorld
+from asmplan.sim.fidelity import Fidelity
+from asmplan.sim.gripper import GripperSpec
+
+Role = Literal["held", "mate", "touching", "support", "obstacle", "table", "nest"]
+ROLES: tuple[str, ...] = ("held", "mate", "touching", "support", "obstacle", "table", "nest")
+REQUIRED_ROLES: tuple[str, ...] = ("held", "mate", "touching", "support", "table", "nest")
+"""Roles a step cannot do without (obstacles are there to catch deviations)."""
+
+_DETAIL = {"coarse": 0, "convex": 1, "exact": 2}
+
+
+class PlanProductMismatchError(ValueError):
+    """The plan does not belong to the product (names of the product or its parts differ)."""
+
+
+@dataclass(frozen=True)
+class SceneSettings:
+    """How a step's scene is selected (SI).
+
+    Parameters
+    ----------
+    near_margin_m : float
+        Obstacles closer than this to the swept space get the fidelity's level of detail.
+    include_margin_m : float
+        Obstacles closer than this are included (coarse beyond ``near_margin_m``); farther
+        ones are left out.
+    touch_tolerance_m : float
+        Two parts whose FCL distance is at most this touch (pins in holes with clearance,
+        faces resting on faces).
+    nest_clearance_m : float
+        Gap around each piece protruding below the face a tray nest supports, m.
+    nest_inset_m : float
+        The nest stays this far inside the supported face's outline, m.
+    nest_min_height_m : float
+        A largest downward face lower than this above the table rests on the table (no nest).
+    dynamic_partners : bool
+        Make non-fixtured mates and touching parts dynamic (default) or static.
+    """
+
+    near_margin_m: float = 5e-3
+    include_margin_m: float = 30e-3
+    touch_tolerance_m: float = 0.2e-3
+    nest_clearance_m: float = 1e-3
+    nest_inset_m: float = 0.5e-3
+    nest_min_height_m: float = 10e-6
+    dynamic_partners: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("near_margin_m", "include_margin_m", "touch_tolerance_m",
+                     "nest_clearance_m", "nest_inset_m", "nest_min_height_m"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"SceneSettings.{name}: expected a finite value >= 0, found {v}")
+        if self.include_margin_m < self.near_margin_m:
+            raise ValueError(
+                f"SceneSettings.include_margin_m: expected >= near_margin_m "
+                f"({self.near_margin_m}), found {self.include_margin_m}"
+            )
+
+
+@dataclass(frozen=True, eq=False)
+class SceneBody:
+    """One body of a step's scene.
+
+    Attributes
+    ----------
+    name : str
+        Part name, "table" or "nest:<part>".
+    role : str
+        One of :data:`ROLES`.
+    dynamic : bool
+    level : str
+        Level of detail of the pieces ("exact", "convex", "coarse"; "box" for table/nest).
+    T_world_body : (4, 4) float array
+    pieces : tuple of ConvexPiece
+        Collision pieces in the body frame.
+    reason : str
+        Why the body is in the scene, and why at this level and with these dynamics.
+    mass_kg : float
+        0 for static bodies.
+    com_m : (3,) float array, body frame.
+    inertia_kgm2 : (3, 3) float array about the centre of mass.
+    friction : float
+    distance_m : float
+        Distance of its bounding box from the swept space (0 for required bodies), m.
+    """
+
+    name: str
+    role: str
+    dynamic: bool
+    level: str
+    T_world_body: np.ndarray
+    pieces: tuple[ConvexPiece, ...]
+    reason: str
+    mass_kg: float = 0.0
+    com_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    inertia_kgm2: np.ndarray | None = None
+    friction: float = 0.5
+    distance_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.role not in ROLES:
+            raise ValueError(f"SceneBody {self.name}: role expected one of {ROLES}, "
+                             f"found {self.role!r}")
+        if self.dynamic and not self.mass_kg > 0:
+            raise ValueError(f"SceneBody {self.name}: a dynamic body needs mass > 0, found "
+                             f"{self.mass_kg}")
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-safe description (no geometry)."""
+        return {
+            "name": self.name, "role": self.role, "dynamic": self.dynamic, "level": self.level,
+            "pieces": len(self.pieces), "reason": self.reason,
+            "mass_kg": float(self.mass_kg), "distance_m": float(self.distance_m),
+            "T_world_body": np.asarray(self.T_world_body, float).tolist(),
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class StepScene:
+    """The selected scene of one step.
+
+    Attributes
+    ----------
+    step_index : int
+    part : str
+        The held part.
+    bodies : tuple of SceneBody
+        In a fixed order: table, nest, held part, then the others by role and name.
+    left_out : tuple of (str, str)
+        (part, reason) of every product part not in the scene.
+    notes : tuple of str
+    culled : bool
+        False when every part was kept (``cull=False``).
+    """
+
+    step_index: int
+    part: str
+    bodies: tuple[SceneBody, ...]
+    left_out: tuple[tuple[str, str], ...]
+    notes: tuple[str, ...] = ()
+    culled: bool = True
+
+    def body(self, name: str) -> SceneBody:
+        for b in self.bodies:
+            if b.name == name:
+                return b
+        raise KeyError(f"scene of step {self.step_index} has no body {name!r}; it has "
+                       f"{[b.name for b in self.bodies]}")
+
+    def names(self, *roles: str) -> tuple[str, ...]:
+        """Names of the bodies with one of ``roles`` (all when none given)."""
+        return tuple(b.name for b in self.bodies if not roles or b.role in roles)
+
+    @property
+    def parts(self) -> tuple[str, ...]:
+        """Names of the product parts in the scene."""
+        return tuple(b.name for b in self.bodies if b.role not in ("table", "nest"))
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-safe description of the selection (see docs/results-format.md)."""
+        return {
+            "culled": self.culled,
+            "bodies": [b.summary() for b in self.bodies],
+            "left_out": [{"name": n, "reason": r} for n, r in self.left_out],
+            "notes": list(self.notes),
+        }
+
+
+# ---------------------------------------------------------------------------------------------
+# Gripper
+# ---------------------------------------------------------------------------------------------
+def gripper_spec(resource: GripperResource, max_commanded_N: float = 0.0) -> GripperSpec:
+    """The simulated gripper matching the product's gripper resource (and the planner's model).
+
+    Pads are the finger boxes (``finger_size_m``: width x, thickness y, length z, centred on
+    the TCP along z), the palm sits right behind them (``palm_gap_m = 0``) as in
+    :func:`asmplan.planner.motion.gripper_model`; stroke, finger friction and mass come from
+    the resource. ``max_clamp_force_N`` is the resource's ``max_force_N`` or the largest
+    commanded force if larger (the plan is executed as planned; the excess is a warning).
+    """
+    finger = tuple(float(v) for v in resource.finger_size_m)
+    finger_mass = 0.02
+    palm_mass = max(float(resource.mass_kg) - 2 * finger_mass, 0.05)
+    return GripperSpec(
+        pad_size_m=finger,  # type: ignore[arg-type]
+        pad_friction=float(resource.finger_friction),
+        max_opening_m=float(resource.stroke_m),
+        finger_mass_kg=finger_mass,
+        palm_mass_kg=palm_mass,
+        palm_size_m=tuple(float(v) for v in resource.palm_size_m),  # type: ignore[arg-type]
+        palm_gap_m=0.0,
+        max_clamp_force_N=max(float(resource.max_force_N), float(max_commanded_N), 1e-3),
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Geometry helpers
+# ---------------------------------------------------------------------------------------------
+def piece_corners(pc: ConvexPiece) -> np.ndarray:
+    """Points (n, 3) in the part frame whose convex hull contains the piece."""
+    if pc.kind == "hull":
+        assert pc.vertices_m is not None
+        local = pc.vertices_m
+    else:
+        if pc.kind == "box":
+            assert pc.half_extents_m is not None
+            he = pc.half_extents_m
+        elif pc.kind == "cylinder":
+            he = np.array([pc.radius_m, pc.radius_m, pc.length_m / 2])
+        else:
+            he = np.full(3, pc.radius_m)
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+        local = signs * he
+    return local @ pc.T_part_piece[:3, :3].T + pc.T_part_piece[:3, 3]
+
+
+def _transform(points: np.ndarray, T: np.ndarray) -> np.ndarray:
+    return points @ T[:3, :3].T + T[:3, 3]
+
+
+def _aabb(points: np.ndarray) -> np.ndarray:
+    return np.stack([points.min(axis=0), points.max(axis=0)])
+
+
+def box_distance_m(a: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """Euclidean distance between AABB ``a`` (2, 3) and each of ``boxes`` (n, 2, 3), m."""
+    gap = np.maximum(0.0, np.maximum(boxes[:, 0] - a[1], a[0] - boxes[:, 1]))
+    return np.linalg.norm(gap, axis=1)
+
+
+def held_part_poses(step: Step, t_s: np.ndarray) -> np.ndarray:
+    """Pose (n, 4, 4) of the held part at times ``t_s``: at its start pose until the clamp,
+    carried by the gripper through the held phases, at its final pose after the release."""
+    assert step.trajectory is not None and step.grasp is not None
+    traj = step.trajectory
+    T_grip = traj.poses_at(t_s)
+    carried = T_grip @ invert(step.grasp.T_part_gripper)
+    clamp0 = traj.phase_span("clamp").t_start_s
+    idx = traj.phase_indices_at(t_s)
+    out = carried.copy()
+    names = [p.name for p in traj.phases]
+    for k, t in enumerate(t_s):
+        if names[idx[k]] in OPEN_PHASES:
+            out[k] = step.T_world_start if t <= clamp0 else step.T_world_final
+    return out
+
+
+def swept_boxes(step: Step, part_points: np.ndarray, gripper_points: np.ndarray) -> np.ndarray:
+    """Bounding boxes (n - 1, 2, 3) covering the held part and the open gripper between two
+    consecutive trajectory samples (the box of both samples' boxes), world frame, m."""
+    assert step.trajectory is not None
+    t = step.trajectory.t_s
+    T_part = held_part_poses(step, t)
+    T_grip = step.trajectory.T_world_gripper
+    pts_part = np.einsum("nij,kj->nki", T_part[:, :3, :3], part_points) + T_part[:, None, :3, 3]
+    pts_grip = np.einsum("nij,kj->nki", T_grip[:, :3, :3], gripper_points) + T_grip[:, None, :3, 3]
+    pts = np.concatenate([pts_part, pts_grip], axis=1)
+    lo, hi = pts.min(axis=1), pts.max(axis=1)
+    return np.stack([np.minimum(lo[:-1], lo[1:]), np.maximum(hi[:-1], hi[1:])], axis=1)
+
+
+def physics_model(geometry: Any, part: str, level: LevelOfDetail, needs_features: bool
+                  ) -> tuple[CollisionModel, str]:
+    """The collision model PyBullet can use for ``part`` at the requested ``level``.
+
+    Returns the model and a note on any change of level (see the module docstring).
+    """
+    note = ""
+    if level == "coarse" and needs_features:
+        coarse = geometry.collision_model(part, "coarse", measured=False)
+        convex = geometry.collision_model(part, "convex", measured=False)
+        if len(convex.pieces) > 1:
+            return convex, ("convex (coarse would fill its holes and bridge its pins, and it is "
+                            "in contact)")
+        return coarse, note
+    if level == "exact":
+        exact = geometry.collision_model(part, "exact")
+        if exact.mesh_faces is not None or not exact.pieces:
+            return geometry.collision_model(part, "convex", measured=False), (
+                "convex (its exact model is a triangle mesh, which PyBullet cannot use for "
+                "every body; convex pieces keep the holes as exact polygons)")
+        return exact, note
+    return geometry.collision_model(part, level, measured=False), note
+
+
+# ---------------------------------------------------------------------------------------------
+# Tray nest
+# ---------------------------------------------------------------------------------------------
+def _rect_minus(rect: np.ndarray, holes: list[np.ndarray]) -> list[np.ndarray]:
+    """Cover rectangle ``rect`` (2, 2: min, max of x, y) minus the rectangles ``holes`` with
+    a few disjoint rectangles (grid cells merged along rows, then equal strips across rows)."""
+    xs = {rect[0, 0], rect[1, 0]}
+    ys = {rect[0, 1], rect[1, 1]}
+    clipped = []
+    for h in holes:
+        lo = np.maximum(h[0], rect[0])
+        hi = np.minimum(h[1], rect[1])
+        if np.all(hi > lo):
+            clipped.append(np.stack([lo, hi]))
+            xs.update((lo[0], hi[0]))
+            ys.update((lo[1], hi[1]))
+    xv, yv = sorted(xs), sorted(ys)
+    strips: list[list[tuple[float, float]]] = []
+    for j in range(len(yv) - 1):
+        cy = 0.5 * (yv[j] + yv[j + 1])
+        row: list[tuple[float, float]] = []
+        for i in range(len(xv) - 1):
+            cx = 0.5 * (xv[i] + xv[i + 1])
+            free = not any(h[0, 0] < cx < h[1, 0] and h[0, 1] < cy < h[1, 1] for h in clipped)
+            if free:
+                if row and row[-1][1] == xv[i]:
+                    row[-1] = (row[-1][0], xv[i + 1])
+                else:
+                    row.append((xv[i], xv[i + 1]))
+        strips.append(row)
+    out: list[np.ndarray] = []
+    open_: dict[tuple[float, float], float] = {}
+    for j, row in enumerate([*strips, []]):
+        current = set(row)
+        for seg in list(open_):
+            if seg not in current:
+                y0 = open_.pop(seg)
+                out.append(np.array([[seg[0], y0], [seg[1], yv[j]]]))
+        for seg in row:
+            if seg not in open_:
+                open_[seg] = yv[j]
+    return [r for r in out if np.all(r[1] - r[0] > 1e-9)]
+
+
+def tray_nest(geometry: Any, part: str, T_world_part: np.ndarray, pieces: tuple[ConvexPiece, ...],
+              settings: SceneSettings) -> tuple[tuple[ConvexPiece, ...], np.ndarray, str] | None:
+    """Static support under the part's largest downward face, or None when the part rests on
+    the table with that face (or has no horizontal downward face).
+
+    Returns (box pieces in the nest frame, T_world_nest (4, 4), description).
+    """
+    mesh = geometry.mesh(part)
+    v = _transform(np.asarray(mesh.vertices, float), T_world_part)
+    faces = np.asarray(mesh.faces)
+    tri = v[faces]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area2 = np.linalg.norm(n, axis=1)
+    ok = area2 > 0
+    nz = np.zeros(len(faces))
+    nz[ok] = n[ok, 2] / area2[ok]
+    down = ok & (nz < -1.0 + 1e-9)
+    if not down.any():
+        return None
+    z = tri[down, :, 2].mean(axis=1)
+    key = np.round(z / 1e-6).astype(np.int64)
+    areas = 0.5 * area2[down]
+    uniq = np.unique(key)
+    totals = np.array([areas[key == u].sum() for u in uniq])
+    best = uniq[int(np.argmax(totals))]
+    sel = np.flatnonzero(down)[key == best]
+    z_face = float(tri[sel, :, 2].mean())
+    if z_face < settings.nest_min_height_m:
+        return None
+    # nest frame: world z, x along the part's horizontal axis closest to world x (yaw only)
+    R = T_world_part[:3, :3]
+    horiz = [c for c in range(3) if abs(R[2, c]) < 0.5]
+    ax = R[:, horiz[0]].copy()
+    ax[2] = 0.0
+    ax /= np.linalg.norm(ax)
+    T_nest = np.eye(4)
+    T_nest[:3, 0] = ax
+    T_nest[:3, 1] = np.cross([0.0, 0.0, 1.0], ax)
+    T_nest[:3, 2] = [0.0, 0.0, 1.0]
+    to_nest = invert(T_nest)
+    face_pts = _transform(tri[sel].reshape(-1, 3), to_nest)
+    rect = _aabb(face_pts[:, :2])
+    rect = rect + np.array([[1.0, 1.0], [-1.0, -1.0]]) * settings.nest_inset_m
+    if np.any(rect[1] <= rect[0]):
+        return None
+    pockets = []
+    for pc in pieces:
+        pts = _transform(_transform(piece_corners(pc), T_world_part), to_nest)
+        if pts[:, 2].min() < z_face - 1e-6:
+            box = _aabb(pts[:, :2])
+            pockets.append(box + np.array([[-1.0, -1.0], [1.0, 1.0]]) * settings.nest_clearance_m)
+    cells = _rect_minus(rect, pockets)
+    if not cells:
+        return None
+    out = []
+    for k, c in enumerate(cells):
+        T = np.eye(4)
+        T[:2, 3] = 0.5 * (c[0] + c[1])
+        T[2, 3] = z_face / 2
+        he = np.array([(c[1, 0] - c[0, 0]) / 2, (c[1, 1] - c[0, 1]) / 2, z_face / 2])
+        out.append(ConvexPiece("box", T, half_extents_m=he, name=f"nest{k}"))
+    desc = (f"tray nest: {len(out)} boxes under its largest downward face at "
+            f"z = {z_face * 1e3:.2f} mm, pockets around {len(pockets)} protruding pieces")
+    return tuple(out), T_nest, desc
+
+
+# ---------------------------------------------------------------------------------------------
+# Selection
+# ---------------------------------------------------------------------------------------------
+def part_poses(plan: Plan, index: int) -> tuple[dict[str, np.ndarray], frozenset[str]]:
+    """Pose of every part while step ``index`` runs, and the set of parts in place.
+
+    Parts in place: fixtured ones (kind "fixture", in place from the start) and those of the
+    earlier steps, at their final (assembled) poses; the others at their start poses.
+    """
+    placed = {s.part for s in plan.steps[:index]} | {s.part for s in plan.steps
+                                                     if s.kind == "fixture"}
+    placed.discard(plan.steps[index].part)
+    poses = {s.part: (s.T_world_final if s.part in placed else s.T_world_start)
+             for s in plan.steps}
+    return poses, frozenset(placed)
+
+
+def check_plan_product(plan: Plan, product: Product) -> None:
+    """Raise :class:`PlanProductMismatchError` when ``plan`` was not made for ``product``."""
+    if plan.product != product.name:
+        raise PlanProductMismatchError(
+            f"plan is for product {plan.product!r}, found product {product.name!r}")
+    if sorted(plan.sequence) != sorted(product.part_names):
+        raise PlanProductMismatchError(
+            f"plan parts {sorted(plan.sequence)} differ from the product's "
+            f"{sorted(product.part_names)}")
+
+
+def _mass_body(geometry: Any, product: Product, name: str) -> dict[str, Any]:
+    mp = geometry.mass_properties(name)
+    return {"mass_kg": float(mp.mass_kg), "com_m": np.asarray(mp.com_m, float),
+            "inertia_kgm2": np.asarray(mp.inertia_kgm2, float),
+            "friction": float(product.part(name).friction)}
+
+
+def select_scene(plan: Plan, index: int, product: Product, geometry: Any, fidelity: Fidelity,
+                 settings: SceneSettings | None = None, *, cull: bool = True) -> StepScene:
+    """The bodies step ``index`` of ``plan`` needs (see the module docstring).
+
+    Parameters
+    ----------
+    plan : Plan
+    index : int
+        Step index; the step must move a part (kind "insert" or "place").
+    product : Product
+    geometry : ProductGeometry
+    fidelity : Fidelity
+        Its ``geometry_lod`` sets the level of detail.
+    settings : SceneSettings, optional
+    cull : bool
+        False keeps every part (others as static obstacles at the detailed level).
+
+    Returns
+    -------
+    StepScene
+    """
+    s = settings or SceneSettings()
+    check_plan_product(plan, product)
+    step = plan.steps[index]
+    if step.kind == "fixture" or step.trajectory is None or step.grasp is None:
+        raise ValueError(f"step {index} ({step.part}): expected a step that moves its part, "
+                         f"found kind {step.kind!r}")
+    held = step.part
+    poses, placed = part_poses(plan, index)
+    level = fidelity.geometry_lod
+    notes: list[str] = []
+    bodies: list[SceneBody] = []
+
+    # table
+    table = product.resources.table
+    tm = table_model(table)
+    bodies.append(SceneBody("table", "table", False, "box", np.eye(4), tm.pieces,
+                            "work table (top face z = 0), static", friction=float(table.friction)))
+
+    # held part (+ nest)
+    held_model, note = physics_model(geometry, held, level, True)
+    held_reason = f"held part, dynamic, at its start pose; level {held_model.level}"
+    if note:
+        held_reason += f": {note}"
+    nest = tray_nest(geometry, held, step.T_world_start, held_model.pieces, s)
+    if nest is not None:
+        pieces, T_nest, desc = nest
+        bodies.append(SceneBody(f"nest:{held}", "nest", False, "box", T_nest, pieces,
+                                f"{desc}, static (the part does not rest on the table)",
+                                friction=float(table.friction)))
+    held_body = SceneBody(held, "held", True, held_model.level, step.T_world_start,
+                          held_model.pieces, held_reason, **_mass_body(geometry, product, held))
+
+    # mates and touching parts at the seated pose
+    mate_partners: dict[str, list[str]] = {}
+    for m in product.mates:
+        other = m.hole_part if m.pin_part == held else m.pin_part if m.hole_part == held else None
+        if other is not None and other in placed:
+            mate_partners.setdefault(other, []).append(m.name)
+    world = CollisionWorld(geometry.fcl_shapes)
+    for name in [held, *sorted(placed)]:
+        world.add(name, geometry.collision_model(name, "convex", measured=False),
+                  step.T_world_final if name == held else poses[name])
+
+    def touching(a: str, candidates: list[str]) -> list[tuple[str, float]]:
+        out = []
+        box_a = world.aabb(a)
+        for b in candidates:
+            if b == a:
+                continue
+            if box_distance_m(box_a, world.aabb(b)[None])[0] > s.touch_tolerance_m:
+                continue
+            d = world.distance(a, b)
+            if d <= s.touch_tolerance_m:
+                out.append((b, d))
+        return out
+
+    partners: dict[str, SceneBody] = {}
+    for other, dist in touching(held, sorted(placed)):
+        fixt = product.is_fixtured(other)
+        dyn = s.dynamic_partners and not fixt
+        model, note = physics_model(geometry, other, level, True)
+        role = "mate" if other in mate_partners else "touching"
+        why = (f"mates with {held} ({', '.join(mate_partners[other])})" if role == "mate"
+               else f"touches {held} when seated (distance {dist * 1e6:.1f} um)")
+        dyn_why = ("static: fixtured" if fixt else
+                   "dynamic, so the insertion pushes a real body" if dyn else
+                   "static (dynamic_partners off)")
+        reason = f"{why}; in place; {dyn_why}; level {model.level}" + (f": {note}" if note else "")
+        kw = _mass_body(geometry, product, other) if dyn else {
+            "friction": float(product.part(other).friction)}
+        partners[other] = SceneBody(other, role, dyn, model.level, poses[other], model.pieces,
+                                    reason, **kw)
+    for other in sorted(set(mate_partners) - set(partners)):
+        notes.append(f"{other} mates with {held} but does not touch it when seated "
+                     f"(distance > {s.touch_tolerance_m * 1e3:.2f} mm); treated as an obstacle")
+
+    # supports of the dynamic partners
+    supports: dict[str, SceneBody] = {}
+    for name in sorted(partners):
+        if not partners[name].dynamic:
+            continue
+        for other, _ in touching(name, sorted(placed - set(partners))):
+            if other in supports:
+                continue
+            model, note = physics_model(geometry, other, level, True)
+            reason = (f"supports {name} (touches it), in place, static; level {model.level}"
+                      + (f": {note}" if note else ""))
+            if product.is_fixtured(other):
+                reason += "; fixtured"
+            supports[other] = SceneBody(other, "support", False, model.level, poses[other],
+                                        model.pieces, reason,
+                                        friction=float(product.part(other).friction))
+
+    # obstacles near the swept space
+    required = {held, *partners, *supports}
+    g = product.resources.gripper
+    open_half = 0.5 * max(step.grasp.open_width_m, step.grasp.width_m)
+    grip_pts = np.concatenate([piece_corners(pc) for pc in gripper_model(g, open_half).pieces])
+    held_pts = np.asarray(geometry.mesh(held).vertices, float)
+    sweep = swept_boxes(step, held_pts, grip_pts)
+    obstacles: list[SceneBody] = []
+    left_out: list[tuple[str, str]] = []
+    for other in product.part_names:
+        if other in required:
+            continue
+        pts = _transform(np.asarray(geometry.mesh(other).vertices, float), poses[other])
+        d = float(box_distance_m(_aabb(pts), sweep).min())
+        where = "in place" if other in placed else "at its start pose"
+        if cull and d > s.include_margin_m:
+            left_out.append((other, f"{where}, {d * 1e3:.1f} mm from the space the part and "
+                                    f"gripper sweep (> {s.include_margin_m * 1e3:.0f} mm)"))
+            continue
+        near = d <= s.near_margin_m or not cull
+        want: LevelOfDetail = level if near else "coarse"
+        model, note = physics_model(geometry, other, want, False)
+        reason = (f"obstacle {where}, {d * 1e3:.1f} mm from the swept space "
+                  + ("(whole scene kept: cull off)" if not cull else
+                     f"({'<=' if near else '>'} {s.near_margin_m * 1e3:.0f} mm)")
+                  + f", static; level {model.level}" + (f": {note}" if note else ""))
+        obstacles.append(SceneBody(other, "obstacle", False, model.level, poses[other],
+                                   model.pieces, reason, friction=float(product.part(other).friction),
+                                   distance_m=d))
+
+    ordered = [*bodies, held_body]
+    ordered += [partners[n] for n in sorted(partners)]
+    ordered += [supports[n] for n in sorted(supports)]
+    ordered += obstacles
+    return StepScene(index, held, tuple(ordered), tuple(left_out), tuple(notes), culled=cull)
+
+
+# ---------------------------------------------------------------------------------------------
+# Building
+# ---------------------------------------------------------------------------------------------
+def build_scene(world: BulletWorld, scene: StepScene) -> dict[str, int]:
+    """Create the scene's bodies in ``world``; returns body ids by name (in scene order)."""
+    ids: dict[str, int] = {}
+    for b in scene.bodies:
+        if b.dynamic:
+            ids[b.name] = world.add_body(b.pieces, b.mass_kg, b.T_world_body, com_m=b.com_m,
+                                         inertia_kgm2=b.inertia_kgm2, friction=b.friction,
+                                         name=b.name)
+        else:
+            ids[b.name] = world.add_body(b.pieces, 0.0, b.T_world_body, friction=b.friction,
+                                         name=b.name)
+    return ids

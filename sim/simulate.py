@@ -1,0 +1,548 @@
+"""Simulate a whole :class:`~asmplan.planner.plan.Plan` in PyBullet, step by step.
+
+:func:`simulate_plan` runs every step that moves a part in its own
+:class:`~asmplan.sim.bullet.BulletWorld` holding only the bodies the step needs
+(:mod:`asmplan.sim.scene`), drives a force-controlled parallel gripper along the step's
+trajectory (:func:`asmplan.sim.execute.execute_step`) and judges it against the product's
+process limits. The result is a :class:`PlanResults` of frozen :class:`StepResult` objects,
+written as ``results.json`` (format in ``docs/results-format.md``).
+
+Success criteria per step (:class:`~asmplan.sim.records.SuccessCriteria`): the product's
+``process.position_tolerance_m`` (final position of the part against its assembled pose),
+``process.max_slip_m`` (slip in the fingers while held), ``process.max_insertion_force_N``
+(contact force on the part from anything but the fingers while lowering), the remaining
+insertion depth along the step's ``insertion_direction`` and the defaults of
+``SuccessCriteria`` for the rest (tilt, rotational slip, drop, penetration, NaN, energy).
+Each failed criterion is named in :attr:`StepResult.criteria` and in the outcome's reasons.
+
+Determinism: the same plan, product and preset give bit-identical results; wall-clock times
+are kept out of :meth:`PlanResults.to_json` (see :meth:`PlanResults.timing`).
+
+Worlds: one fresh world per step. Building a step's world costs 30-150 ms against seconds of
+simulation (measured on pinhole_station, see docs/results-format.md), so sharing one world
+through save/restore could save at most a few per cent, while it would put the bodies of
+every step into every step's collision detection.
+
+Gripper fingers: :class:`CoupledGripper` couples the two force-controlled fingers like the
+rack and pinion of a real parallel gripper: without it both fingers and the part float freely
+along the closing axis, and a 0.3 kg part carried 200 mm along that axis drifted 10 mm
+off the TCP (to the finger's joint limit) and missed its holes.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any
+
+import numpy as np
+
+from asmplan.fileio import atomic_write_json, dumps_json
+from asmplan.knowledge.model import Product
+from asmplan.planner.plan import Plan, Step
+from asmplan.sim.bullet import BulletWorld
+from asmplan.sim.execute import execute_step, scene_warnings
+from asmplan.sim.fidelity import BALANCED, PRESETS, Fidelity
+from asmplan.sim.gripper import FINGER_LINKS, Gripper, GripperSpec
+from asmplan.sim.records import StepOutcome, StepRecord, SuccessCriteria
+from asmplan.sim.scene import (
+    SceneSettings,
+    StepScene,
+    build_scene,
+    check_plan_product,
+    gripper_spec,
+    select_scene,
+)
+
+RESULTS_FORMAT = "asmplan-results"
+RESULTS_VERSION = 1
+
+
+# ---------------------------------------------------------------------------------------------
+# Gripper with coupled fingers
+# ---------------------------------------------------------------------------------------------
+class CoupledGripper(Gripper):
+    """A :class:`~asmplan.sim.gripper.Gripper` whose fingers are coupled like a synchronised
+    parallel gripper, and which opens to the grasp's opening rather than its full stroke.
+
+    Coupling: in force mode each finger gets the commanded squeeze force plus a correction
+    ``-/+ c`` with ``c = (k (q1 - q2) + d (v1 - v2)) / 2``, so the pair is centred on the TCP
+    by a stiffness ``2 k`` and damping ``2 d`` along the closing axis while the squeeze (their
+    mean) is unchanged; at rest ``q1 = q2`` and each finger presses exactly the commanded
+    force. ``k = m w^2`` and ``d = 2 zeta m w`` for the carried mass ``m`` (part + fingers),
+    ``w = min(coupling_omega_radps, 0.25 / dt)`` and ``zeta = 0.7``: an acceleration ``a``
+    along the closing axis offsets the part by ``a / (2 w^2)`` (0.16 mm at 2 m/s^2 with the
+    default 80 rad/s) and the offset vanishes at rest. The correction is explicit (computed
+    from the state before the step); stiffer settings (w >= 150 rad/s) fed energy into stiff
+    pin-in-hole contacts and jammed a 25 g peg that inserts at 60-100 rad/s.
+
+    Parameters
+    ----------
+    world, spec, T_world_tcp, opening_m
+        As for :class:`~asmplan.sim.gripper.Gripper`; ``opening_m`` is also the opening of
+        every open phase (approach, retreat), as planned.
+    carried_mass_kg : float
+        Mass of the part to be carried, kg.
+    coupling_omega_radps : float
+        Natural frequency of the coupling, rad/s.
+    """
+
+    def __init__(
+        self,
+        world: BulletWorld,
+        spec: GripperSpec,
+        T_world_tcp: np.ndarray,
+        opening_m: float | None = None,
+        carried_mass_kg: float = 0.0,
+        coupling_omega_radps: float = 80.0,
+    ) -> None:
+        self._open_default = opening_m
+        super().__init__(world, spec, T_world_tcp, opening_m)
+        m = float(carried_mass_kg) + 2.0 * spec.finger_mass_kg
+        w = min(float(coupling_omega_radps), 0.25 / world.fidelity.dt_s)
+        self.coupling_stiffness_Npm = m * w * w
+        self.coupling_damping_Nspm = 2.0 * 0.7 * m * w
+
+    def command_open(self, opening_m: float | None = None) -> None:
+        """Open mode at ``opening_m`` (default: the opening given at construction)."""
+        super().command_open(self._open_default if opening_m is None else opening_m)
+
+    def command_clamp_force(self, force_N: float) -> None:
+        """Force mode as in the base class, with the finger coupling added once touching.
+
+        (PyBullet adds the joint forces of repeated TORQUE_CONTROL calls within one step,
+        so the whole command is issued here in one call.)
+        """
+        if not (math.isfinite(force_N) and 0.0 <= force_N <= self.spec.max_clamp_force_N):
+            raise ValueError(
+                f"clamp force: expected within [0, {self.spec.max_clamp_force_N}] N, found {force_N}"
+            )
+        v = self.spec.closing_speed_mps
+        if v is not None and not self._touching:
+            self._touching = all(
+                self.world.contacts(self.body, link_a=link).count > 0 for link in FINGER_LINKS
+            )
+        if v is None or self._touching:
+            if self._mode != "force" or not self._torque:
+                self.world.disable_motors(self.body, FINGER_LINKS)
+                self._torque = True
+            q = self.finger_travel_m()
+            qd = self.world.joint_velocities(self.body, FINGER_LINKS)
+            c = 0.5 * (self.coupling_stiffness_Npm * (q[0] - q[1])
+                       + self.coupling_damping_Nspm * (qd[0] - qd[1]))
+            self.world.set_joint_forces(self.body, FINGER_LINKS, (force_N - c, force_N + c))
+        else:
+            self.world.set_joint_velocity_targets(
+                self.body, FINGER_LINKS, (v, v), (force_N, force_N)
+            )
+            self._torque = False
+        self._mode = "force"
+
+
+# ---------------------------------------------------------------------------------------------
+# Results
+# ---------------------------------------------------------------------------------------------
+def _clean(v: Any) -> Any:
+    """JSON-safe copy: non-finite floats become None, tuples lists, arrays lists."""
+    if isinstance(v, float):
+        return v if math.isfinite(v) else None
+    if isinstance(v, np.ndarray):
+        return _clean(v.tolist())
+    if isinstance(v, np.generic):
+        return _clean(v.item())
+    if isinstance(v, dict):
+        return {str(k): _clean(x) for k, x in v.items()}
+    if isinstance(v, list | tuple):
+        return [_clean(x) for x in v]
+    return v
+
+
+def _nan(v: Any) -> float:
+    return math.nan if v is None else float(v)
+
+
+def criteria_for(product: Product) -> SuccessCriteria:
+    """Success criteria from the product's process knowledge (defaults for the rest)."""
+    p = product.process
+    return SuccessCriteria(position_tol_m=float(p.position_tolerance_m),
+                           max_slip_m=float(p.max_slip_m),
+                           max_insertion_force_N=float(p.max_insertion_force_N))
+
+
+def criteria_table(outcome: StepOutcome, criteria: SuccessCriteria, has_axis: bool
+                   ) -> dict[str, dict[str, Any]]:
+    """Every criterion by name: measured ``value``, ``limit`` and ``ok`` (SI units).
+
+    Names: position, angle, insertion_depth (only with a mate axis), slip, rotational_slip,
+    drop, insertion_force, penetration, nan, energy.
+    """
+    def row(value: float, limit: float) -> dict[str, Any]:
+        ok = bool(value <= limit) if math.isfinite(value) else False
+        return {"value": value, "limit": limit, "ok": ok}
+
+    out = {
+        "position": row(outcome.final_position_error_m, criteria.position_tol_m),
+        "angle": row(outcome.final_angle_error_rad, criteria.angle_tol_rad),
+        "slip": row(outcome.max_slip_m, criteria.max_slip_m),
+        "rotational_slip": row(outcome.max_slip_rad, criteria.max_slip_rad),
+        "drop": {"value": bool(outcome.dropped), "limit": False, "ok": not outcome.dropped},
+        "insertion_force": row(outcome.peak_insertion_force_N, criteria.max_insertion_force_N),
+        "penetration": row(outcome.max_penetration_m, criteria.max_penetration_m),
+        "nan": {"value": bool(outcome.nan_detected), "limit": False,
+                "ok": not outcome.nan_detected},
+        "energy": {"value": bool(outcome.energy_growth), "limit": False,
+                   "ok": not outcome.energy_growth},
+    }
+    if has_axis:
+        out["insertion_depth"] = row(outcome.final_axial_error_m, criteria.axial_tol_m)
+    return out
+
+
+def _outcome_to_dict(o: StepOutcome) -> dict[str, Any]:
+    d = o.to_dict()
+    d.pop("wall_time_s", None)  # wall-clock time is not part of the physics result
+    return d
+
+
+def _outcome_from_dict(d: dict[str, Any]) -> StepOutcome:
+    kw: dict[str, Any] = {}
+    for f in fields(StepOutcome):
+        if f.name == "wall_time_s":
+            continue
+        v = d[f.name]
+        if f.name in ("reasons", "warnings"):
+            v = tuple(v)
+        elif f.name in ("success", "dropped", "nan_detected", "energy_growth"):
+            v = bool(v)
+        else:
+            v = _nan(v)
+        kw[f.name] = v
+    return StepOutcome(**kw)
+
+
+@dataclass(frozen=True, eq=False)
+class StepResult:
+    """What simulating one step gave.
+
+    Attributes
+    ----------
+    index : int
+    part : str
+    kind : str
+        The plan step's kind; "fixture" steps are not simulated (the part is in place).
+    outcome : StepOutcome or None
+        None when not simulated.
+    record : StepRecord or None
+        Per-tick record (time, phase, commanded and measured clamp force, slip, part pose,
+        insertion depth, contact forces on the part, ...).
+    scene : dict or None
+        :meth:`StepScene.summary` of the bodies simulated and those left out, with reasons.
+    warnings : tuple of str
+        What the preset may not resolve in this step (checked before simulating).
+    criteria : dict
+        :func:`criteria_table`: every criterion with value, limit and ok.
+    wall_time_s : float
+        Wall-clock time of the step (selection, building, simulation), s. Not in the JSON.
+    timing_s : dict
+        Wall-clock time per stage ("select", "build", "simulate"), s. Not in the JSON.
+    """
+
+    index: int
+    part: str
+    kind: str
+    outcome: StepOutcome | None
+    record: StepRecord | None
+    scene: dict[str, Any] | None
+    warnings: tuple[str, ...]
+    criteria: dict[str, dict[str, Any]] = field(default_factory=dict)
+    wall_time_s: float = 0.0
+    timing_s: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def simulated(self) -> bool:
+        return self.outcome is not None
+
+    @property
+    def success(self) -> bool:
+        """True when every criterion held (or the step was not simulated)."""
+        return self.outcome is None or self.outcome.success
+
+    @property
+    def failed_criteria(self) -> tuple[str, ...]:
+        """Names of the criteria that failed (see :func:`criteria_table`)."""
+        return tuple(sorted(k for k, v in self.criteria.items() if not v["ok"]))
+
+    @property
+    def reasons(self) -> tuple[str, ...]:
+        """The failed criteria with their numbers (empty on success)."""
+        return () if self.outcome is None else self.outcome.reasons
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe dict without wall-clock times."""
+        return _clean({
+            "index": self.index, "part": self.part, "kind": self.kind,
+            "simulated": self.simulated, "success": self.success,
+            "failed_criteria": list(self.failed_criteria),
+            "outcome": None if self.outcome is None else _outcome_to_dict(self.outcome),
+            "criteria": self.criteria,
+            "record": None if self.record is None else self.record.to_dict(),
+            "scene": self.scene, "warnings": list(self.warnings),
+        })
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> StepResult:
+        crit = {k: {"value": (_nan(v["value"]) if not isinstance(v["value"], bool)
+                              else v["value"]),
+                    "limit": v["limit"], "ok": bool(v["ok"])}
+                for k, v in (d.get("criteria") or {}).items()}
+        return cls(index=int(d["index"]), part=d["part"], kind=d["kind"],
+                   outcome=None if d["outcome"] is None else _outcome_from_dict(d["outcome"]),
+                   record=None if d["record"] is None else StepRecord.from_dict(d["record"]),
+                   scene=d["scene"], warnings=tuple(d["warnings"]), criteria=crit)
+
+
+@dataclass(frozen=True, eq=False)
+class PlanResults:
+    """The simulation of a whole plan.
+
+    Attributes
+    ----------
+    product : str
+    source : str
+        The product file the plan names.
+    plan_sequence : tuple of str
+    fidelity : Fidelity
+    culled : bool
+        Whether each step's scene held only the bodies it needs.
+    scene_settings : SceneSettings
+    steps : tuple of StepResult
+    warnings : tuple of str
+        Plan-wide warnings (fits the preset cannot resolve, with how to read the result).
+    """
+
+    product: str
+    source: str
+    plan_sequence: tuple[str, ...]
+    fidelity: Fidelity
+    culled: bool
+    scene_settings: SceneSettings
+    steps: tuple[StepResult, ...]
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def success(self) -> bool:
+        """True when every simulated step succeeded."""
+        return all(s.success for s in self.steps)
+
+    @property
+    def failed_steps(self) -> tuple[StepResult, ...]:
+        return tuple(s for s in self.steps if not s.success)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe dict (no wall-clock times; see :meth:`timing`)."""
+        return _clean({
+            "format": RESULTS_FORMAT, "version": RESULTS_VERSION,
+            "product": self.product, "source": self.source,
+            "sequence": list(self.plan_sequence),
+            "fidelity": asdict(self.fidelity), "culled": self.culled,
+            "scene_settings": asdict(self.scene_settings),
+            "success": self.success,
+            "failed_steps": [s.index for s in self.failed_steps],
+            "warnings": list(self.warnings),
+            "steps": [s.to_dict() for s in self.steps],
+        })
+
+    def to_json(self) -> str:
+        """Deterministic JSON text (sorted keys): bit-identical for the same plan and preset."""
+        return dumps_json(self.to_dict())
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> PlanResults:
+        if d.get("format") != RESULTS_FORMAT:
+            raise ValueError(f"results: expected format {RESULTS_FORMAT!r}, found "
+                             f"{d.get('format')!r}")
+        if d.get("version") != RESULTS_VERSION:
+            raise ValueError(f"results: expected version {RESULTS_VERSION}, found "
+                             f"{d.get('version')!r}")
+        return cls(product=d["product"], source=d["source"],
+                   plan_sequence=tuple(d["sequence"]), fidelity=Fidelity(**d["fidelity"]),
+                   culled=bool(d["culled"]), scene_settings=SceneSettings(**d["scene_settings"]),
+                   steps=tuple(StepResult.from_dict(s) for s in d["steps"]),
+                   warnings=tuple(d["warnings"]))
+
+    @classmethod
+    def from_json(cls, text: str) -> PlanResults:
+        import json
+
+        return cls.from_dict(json.loads(text))
+
+    def write(self, path: Any) -> Any:
+        """Write :meth:`to_json` atomically; returns the path."""
+        return atomic_write_json(path, self.to_dict())
+
+    def timing(self) -> dict[str, Any]:
+        """Wall-clock times (outside the determinism guarantee): per step and total, s."""
+        steps = [{"index": s.index, "part": s.part, "wall_time_s": s.wall_time_s,
+                  **{f"{k}_s": v for k, v in s.timing_s.items()},
+                  "simulated_s": (float(s.record.t_s[-1] - s.record.t_s[0])
+                                  if s.record is not None and s.record.n_ticks else 0.0)}
+                 for s in self.steps]
+        return {"fidelity": self.fidelity.name, "culled": self.culled,
+                "total_s": sum(s.wall_time_s for s in self.steps), "steps": steps}
+
+
+# ---------------------------------------------------------------------------------------------
+# Warnings
+# ---------------------------------------------------------------------------------------------
+def clearance_warnings(product: Product, fidelity: Fidelity) -> tuple[str, ...]:
+    """One warning per mate whose smallest declared clearance the preset cannot resolve,
+    saying how a result is then to be read."""
+    res = fidelity.min_resolvable_clearance_m
+    better = sorted((f for f in PRESETS.values()), key=lambda f: -f.min_resolvable_clearance_m)
+    out = []
+    for m in product.mates:
+        c = m.clearance_min_m
+        if c >= res:
+            continue
+        fit = f", {m.fit}" if m.fit else ""
+        head = (f"mate {m.name} ({m.pin_part}.{m.pin_feature} in {m.hole_part}.{m.hole_feature}"
+                f"{fit}): ")
+        if c < 0:
+            out.append(
+                head + f"a {m.kind} fit (smallest clearance {c * 1e3:.3f} mm, i.e. an "
+                f"interference of {-c * 1e3:.3f} mm) cannot be modelled by rigid bodies; at the "
+                f"{fidelity.name} preset an interference below "
+                f"{res * 1e3:.3f} mm may be pushed through by penetration: a success does not "
+                "show the press force, a failure may be the interference itself.")
+            continue
+        finer = [f for f in better if f.min_resolvable_clearance_m <= c]
+        advice = (f"Run --fidelity {finer[0].name} to resolve it" if finer else
+                  f"No preset resolves it (finest: {better[-1].name}, "
+                  f"{better[-1].min_resolvable_clearance_m * 1e3:.3f} mm)")
+        out.append(
+            head + f"smallest diametral clearance {c * 1e3:.3f} mm is below what the "
+            f"{fidelity.name} preset resolves ({res * 1e3:.3f} mm). A success means the pin "
+            f"fits at this preset's resolution (it would also pass with up to "
+            f"{res * 1e3:.3f} mm of interference), not that the {c * 1e3:.3f} mm fit is proven; "
+            f"a failure of the insertion may be numerical. {advice}.")
+    return tuple(out)
+
+
+def step_warnings(scene: StepScene, product: Product, step: Step, geometry: Any,
+                  fidelity: Fidelity) -> tuple[str, ...]:
+    """:func:`asmplan.sim.execute.scene_warnings` for the fits, masses and speed of a step."""
+    in_scene = set(scene.parts)
+    dynamic = {b.name for b in scene.bodies if b.dynamic}
+    clearances = [m.clearance_min_m for m in product.mates
+                  if {m.pin_part, m.hole_part} <= in_scene
+                  and (m.pin_part in dynamic or m.hole_part in dynamic)]
+    masses = [b.mass_kg for b in scene.bodies if b.dynamic]
+    assert step.trajectory is not None
+    p = step.trajectory.T_world_gripper[:, :3, 3]
+    dt = np.diff(step.trajectory.t_s)
+    speed = float(np.max(np.linalg.norm(np.diff(p, axis=0), axis=1) / dt)) if dt.size else 0.0
+    extents = np.asarray(geometry.mesh(step.part).extents, float)
+    return scene_warnings(fidelity.min_resolvable_clearance_m, clearances, masses,
+                          float(extents.min()), fidelity.dt_s, speed)
+
+
+# ---------------------------------------------------------------------------------------------
+# Simulation
+# ---------------------------------------------------------------------------------------------
+ProgressFn = Callable[[int, int, str, str], None]
+
+
+def simulate_step(plan: Plan, index: int, product: Product, geometry: Any,
+                  fidelity: Fidelity = BALANCED, *, cull: bool = True,
+                  settings: SceneSettings | None = None,
+                  criteria: SuccessCriteria | None = None) -> StepResult:
+    """Simulate step ``index`` of ``plan`` in a fresh world (see the module docstring)."""
+    step = plan.steps[index]
+    if step.kind == "fixture" or step.trajectory is None or step.grasp is None:
+        return StepResult(index, step.part, step.kind, None, None, None,
+                          ("in place from the start (held by a fixture): not simulated",))
+    crit = criteria or criteria_for(product)
+    t0 = time.perf_counter()
+    scene = select_scene(plan, index, product, geometry, fidelity, settings, cull=cull)
+    warns = step_warnings(scene, product, step, geometry, fidelity)
+    traj = step.trajectory
+    f_max = float(np.max(traj.clamp_force_N))
+    g_res = product.resources.gripper
+    if f_max > g_res.max_force_N:
+        warns += (f"the trajectory commands {f_max:.2f} N per finger, more than the gripper's "
+                  f"max_force {g_res.max_force_N:.2f} N; executed as planned",)
+    t1 = time.perf_counter()
+    with BulletWorld(fidelity) as world:
+        ids = build_scene(world, scene)
+        held = scene.body(step.part)
+        gripper = CoupledGripper(world, gripper_spec(g_res, f_max), traj.T_world_gripper[0],
+                                 opening_m=float(step.grasp.open_width_m),
+                                 carried_mass_kg=held.mass_kg)
+        t2 = time.perf_counter()
+        record, outcome = execute_step(world, gripper, ids[step.part], traj, crit,
+                                       T_world_part_target=step.T_world_final,
+                                       mate_axis_world=step.insertion_direction,
+                                       warnings=warns)
+    t3 = time.perf_counter()
+    table = criteria_table(outcome, crit, step.insertion_direction is not None)
+    return StepResult(index, step.part, step.kind, outcome, record, scene.summary(), warns,
+                      table, wall_time_s=t3 - t0,
+                      timing_s={"select": t1 - t0, "build": t2 - t1, "simulate": t3 - t2})
+
+
+def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
+                  fidelity: Fidelity = BALANCED, *, cull: bool = True,
+                  settings: SceneSettings | None = None,
+                  criteria: SuccessCriteria | None = None,
+                  steps: Sequence[int] | None = None,
+                  progress: ProgressFn | None = None) -> PlanResults:
+    """Simulate every step of ``plan`` (or the ``steps`` given) and judge each.
+
+    Parameters
+    ----------
+    plan : Plan
+    product : Product
+        The product the plan was made for (raises
+        :class:`~asmplan.sim.scene.PlanProductMismatchError` otherwise).
+    geometry : ProductGeometry, optional
+        Shared geometry cache (default: a new one).
+    fidelity : Fidelity
+        Preset (:data:`~asmplan.sim.fidelity.BALANCED` by default).
+    cull : bool
+        True: each step's scene holds only what it needs; False: every part is present.
+    settings : SceneSettings, optional
+    criteria : SuccessCriteria, optional
+        Default: :func:`criteria_for` the product.
+    steps : sequence of int, optional
+        Indices to simulate (default all).
+    progress : callable, optional
+        ``progress(k, n, part, status)`` with status "start" or "done".
+
+    Returns
+    -------
+    PlanResults
+    """
+    check_plan_product(plan, product)
+    if geometry is None:
+        from asmplan.parts.models import ProductGeometry
+
+        geometry = ProductGeometry(product)
+    s = settings or SceneSettings()
+    todo = list(range(len(plan.steps))) if steps is None else sorted(set(int(k) for k in steps))
+    for k in todo:
+        if not 0 <= k < len(plan.steps):
+            raise IndexError(f"step {k}: expected 0..{len(plan.steps) - 1}")
+    results = []
+    for n, k in enumerate(todo):
+        if progress is not None:
+            progress(n, len(todo), plan.steps[k].part, "start")
+        results.append(simulate_step(plan, k, product, geometry, fidelity, cull=cull,
+                                     settings=s, criteria=criteria))
+        if progress is not None:
+            progress(n, len(todo), plan.steps[k].part, "done")
+    return PlanResults(product=product.name, source=plan.source,
+                       plan_sequence=tuple(plan.sequence), fidelity=fidelity, culled=cull,
+                       scene_settings=s, steps=tuple(results),
+                       warnings=clearance_warnings(product, fidelity))
