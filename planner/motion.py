@@ -1226,11 +1226,12 @@ class SequenceChoice:
     insertions: dict[str, np.ndarray] = field(default_factory=dict)
 
 
-def ranked_sequences(product: Product) -> list[SequenceChoice]:
-    """The sequence planner's ranked orders, best first."""
+def ranked_sequences(product: Product, sequence_plan: Any | None = None) -> list[SequenceChoice]:
+    """The sequence planner's ranked orders, best first (from ``sequence_plan`` when given,
+    a :class:`~asmplan.planner.sequence.SequencePlan`, else planned now)."""
     from .sequence import plan_sequence
 
-    sp = plan_sequence(product)
+    sp = sequence_plan if sequence_plan is not None else plan_sequence(product)
     return [SequenceChoice(tuple(r.order),
                            f"sequence planner: rank {r.rank} of {len(sp.sequences)} "
                            f"({sp.method}), cost {r.cost_s:.2f} s",

@@ -91,6 +91,11 @@ class ClampForce:
     limit_N: float
     limit_source: str
 
+    @property
+    def slip_limit_N(self) -> float:
+        """The analytic slip limit m (g + a) / (2 mu) without the safety factor, N."""
+        return self.required_N / self.safety_factor
+
     def as_dict(self) -> dict[str, float | str]:
         return {"commanded_N": self.commanded_N, "required_N": self.required_N,
                 "mass_kg": self.mass_kg, "mu": self.mu,

@@ -48,11 +48,35 @@ from types import TracebackType
 from typing import Literal
 
 import numpy as np
-import pybullet
 
 from asmplan.parts.pieces import ConvexPiece
 from asmplan.planner.trajectory import matrix_from_quat_xyzw, quat_xyzw_from_matrix
 from asmplan.sim.fidelity import Fidelity
+
+
+def _import_pybullet_quietly():
+    """Import pybullet with file descriptor 2 pointed at /dev/null: it prints its build time
+    to stderr from C at import, which is noise among the warnings a user must read."""
+    import sys
+
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no real stderr: import as is
+        import pybullet as module
+
+        return module
+    try:
+        with open(os.devnull, "wb") as devnull:
+            os.dup2(devnull.fileno(), 2)
+            import pybullet as module
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+    return module
+
+
+pybullet = _import_pybullet_quietly()
 
 MAX_COMPOUND_CHILDREN = 16
 """PyBullet drops compound children beyond this count silently."""

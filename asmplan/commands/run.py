@@ -1,22 +1,24 @@
-"""``asmplan run [PRODUCT] -o OUTDIR``: the main job, from product YAML to results.
+"""``asmplan run [PRODUCT] -o OUTDIR``: the main job, from product YAML to a report.
 
-Stages so far: validate, liaison and precedence graphs. Later stages (sequence, motion,
-simulation, report) are added as they land.
+Validate, sequence, plan grasps and paths, simulate every step and write ``plan.json``,
+``results.json``, ``sequence.json``, ``summary.json``, ``report.html`` and its images into
+OUTDIR (built beside it and swapped in at the end). Exit 0 when every step succeeds, 1 when a
+step fails physically or no plan exists (with the reason), 2 on bad input.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import time
 from importlib import resources
 from pathlib import Path
+from typing import TextIO
 
-import networkx as nx
-
-from ..fileio import atomic_write_json, staged_directory
-from ..knowledge.graphs import liaison_graph, precedence_graph
 from ..knowledge.loader import load_product
-from .validate import summary
+from ..pipeline import RunResult, RunSettings, run_product, write_outputs
+from ..planner.plan import PlannerSettings
+from .plan import _evidence_lines
 
 
 def bundled_example(name: str = "pinhole_station") -> Path:
@@ -25,23 +27,91 @@ def bundled_example(name: str = "pinhole_station") -> Path:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("run", help="the main job: product YAML in, results and report out",
-                       description="Validate, plan and simulate a product and write the results "
-                                   "to OUTDIR. Without PRODUCT, runs the bundled seed workstation.")
+    p = sub.add_parser("run", help="the main job: product YAML in, plan, simulation and report out",
+                       description="Validate, sequence, plan and simulate a product and write the "
+                                   "results and the report to OUTDIR (replaced atomically). Without "
+                                   "PRODUCT, runs the bundled seed pin-hole workstation.")
     p.add_argument("product", nargs="?", help="product YAML file (default: the bundled seed "
                                                "pin-hole workstation)")
-    p.add_argument("-o", "--out", default="out", help="output folder (replaced atomically)")
+    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
+    p.add_argument("--fidelity", choices=("fast", "balanced", "accurate"), default="balanced",
+                   help="physics fidelity preset (default: balanced)")
+    p.add_argument("--seed", type=int, default=0, help="planner seed (default 0)")
+    p.add_argument("--no-report", action="store_true", help="skip rendering the report")
+    p.add_argument("--no-cull", action="store_true",
+                   help="load the whole product into every step's scene (slower; for comparison)")
     p.set_defaults(func=run)
+
+
+class StageProgress:
+    """A one-line progress bar per stage on a terminal; plain log lines otherwise."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+        self.tty = bool(getattr(stream, "isatty", lambda: False)())
+        self.t0 = time.perf_counter()
+
+    def __call__(self, stage: str, done: int, total: int, label: str) -> None:
+        elapsed = time.perf_counter() - self.t0
+        if self.tty:
+            width = 24
+            fill = round(width * done / max(total, 1))
+            self.stream.write(f"\r{stage:<9} [{'#' * fill}{'.' * (width - fill)}] {done}/{total} "
+                              f"{label:<16} {elapsed:6.1f} s")
+            if done == total:
+                self.stream.write("\n")
+        elif done > 0:
+            self.stream.write(f"{stage}: {done}/{total} {label} ({elapsed:.1f} s)\n".replace("  ", " "))
+        self.stream.flush()
+
+
+def summary_table(result: RunResult) -> str:
+    head = ("step", "part", "kind", "cycle s", "clamp N", "slip lim N", "insert N", "error mm", "result")
+    rows: list[tuple[str, ...]] = []
+    sims = {s.index: s for s in result.results.steps} if result.results is not None else {}
+    for step in result.plan.steps if result.plan is not None else ():
+        sim = sims.get(step.index)
+        o = sim.outcome if sim is not None else None
+        traj = step.trajectory
+        cycle = f"{traj.t_s[-1] - traj.t_s[0]:.2f}" if traj is not None else "-"
+        verdict = "-" if o is None else ("ok" if o.success else "FAILED: " + "; ".join(o.reasons))
+        rows.append((str(step.index), step.part, step.kind, cycle,
+                     f"{o.peak_clamp_force_N:.2f}" if o else "-",
+                     f"{step.clamp.slip_limit_N:.2f}" if step.clamp else "-",
+                     f"{o.peak_insertion_force_N:.2f}" if o else "-",
+                     f"{o.final_position_error_m * 1e3:.3f}" if o else "-", verdict))
+    widths = [max(len(r[i]) for r in [head, *rows]) for i in range(len(head))]
+
+    def line(r: tuple[str, ...]) -> str:
+        return "  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip()
+
+    return "\n".join([line(head), line(tuple("-" * w for w in widths)), *map(line, rows)])
 
 
 def run(args: argparse.Namespace) -> int:
     path = Path(args.product) if args.product else bundled_example()
     product = load_product(path, display_name=args.product or "pinhole_station.yaml (bundled)")
-    with staged_directory(args.out) as stage:
-        atomic_write_json(stage / "product.json", summary(product))
-        atomic_write_json(stage / "graphs.json", {
-            "liaison": nx.node_link_data(liaison_graph(product), edges="edges"),
-            "precedence": nx.node_link_data(precedence_graph(product), edges="edges")})
-    print(f'{product.name}: {len(product.parts)} parts, {len(product.mates)} mates validated; '
-          f"results in {args.out}/", file=sys.stdout)
-    return 0
+    settings = RunSettings(fidelity=args.fidelity, planner=PlannerSettings(seed=args.seed),
+                           cull=not args.no_cull)
+    progress = StageProgress(sys.stderr)
+    result = run_product(product, settings, progress=progress)
+    write_outputs(result, args.out, report=not args.no_report, progress=progress)
+    out = sys.stdout
+    if result.plan is not None:
+        print(summary_table(result), file=out)
+    for w in result.warnings:
+        print(f"warning: {w}", file=out)
+    t = result.timings_s
+    times = ", ".join(f"{k} {v:.1f} s" for k, v in t.items())
+    if result.failure:
+        print(f"{product.name}: no plan: {result.failure}", file=out)
+        for line in _evidence_lines(result.failure_evidence):
+            print(line, file=out)
+    elif result.results is not None and not result.results.success:
+        failed = ", ".join(f"{s.index} ({s.part})" for s in result.results.failed_steps)
+        print(f"{product.name}: step(s) {failed} fail physically at fidelity {result.fidelity.name}",
+              file=out)
+    else:
+        print(f"{product.name}: every step succeeds at fidelity {result.fidelity.name}", file=out)
+    print(f"results and report in {args.out}/ ({times})", file=out)
+    return result.exit_code

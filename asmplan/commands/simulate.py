@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import os
 import sys
 from pathlib import Path
 
@@ -85,22 +84,6 @@ def product_path(plan: Plan, plan_file: str) -> Path:
                                  f"(looked at {', '.join(str(c) for c in candidates)})")
 
 
-def _import_simulator() -> None:
-    """Import pybullet with file descriptor 2 pointed at /dev/null: it prints its build time
-    to stderr from C at import, which is noise among the warnings a user must read."""
-    if "pybullet" in sys.modules:
-        return
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 2)
-            import pybullet  # noqa: F401  (the only effect wanted is its import)
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-
-
 def run(args: argparse.Namespace) -> int:
     plan = read_plan(args.plan)
     src = product_path(plan, args.plan)
@@ -111,7 +94,6 @@ def run(args: argparse.Namespace) -> int:
             print(f"asmplan simulate: warning: {src} changed since the plan was made "
                   "(SHA-256 differs); simulating the plan against the current file",
                   file=sys.stderr)
-    _import_simulator()
     from ..sim.fidelity import preset
     from ..sim.scene import PlanProductMismatchError
     from ..sim.simulate import simulate_plan

@@ -1,0 +1,164 @@
+"""The main job as a library call: product in; sequence, plan, simulation and report out.
+
+>>> from asmplan.pipeline import RunSettings, run_product          # doctest: +SKIP
+>>> result = run_product("examples/pinhole_station.yaml", RunSettings(fidelity="fast"))
+>>> result.success, [s.part for s in result.plan.steps]
+
+Stages share one :class:`~asmplan.parts.models.ProductGeometry`, so every part's geometry and
+collision models are built once. A planning failure or a failed physical check is part of the
+result (``failure``, ``results.failed_steps``), not an exception; only bad input raises
+(:class:`~asmplan.knowledge.errors.ProductError`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .fileio import atomic_write_json, staged_directory
+from .knowledge.loader import load_product
+from .knowledge.model import Product
+from .parts.models import ProductGeometry
+from .planner.errors import PlanningError
+from .planner.fcl_oracle import FclOracle
+from .planner.motion import plan_product, ranked_sequences
+from .planner.plan import Plan, PlannerSettings
+from .planner.sequence import SequencePlan, SequenceSettings, plan_sequence
+from .sim.fidelity import Fidelity, preset
+from .sim.simulate import PlanResults, clearance_warnings, simulate_plan
+
+Progress = Callable[[str, int, int, str], None]
+"""``progress(stage, done, total, label)``: stage is "sequence", "plan", "simulate" or "report"."""
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """Settings of one run; every costly knob is in ``fidelity`` and ``planner``."""
+
+    fidelity: Fidelity | str = "balanced"
+    planner: PlannerSettings = field(default_factory=PlannerSettings)
+    sequence: SequenceSettings = field(default_factory=SequenceSettings)
+    cull: bool = True
+    simulate: bool = True
+
+    @property
+    def fidelity_preset(self) -> Fidelity:
+        return preset(self.fidelity) if isinstance(self.fidelity, str) else self.fidelity
+
+
+@dataclass
+class RunResult:
+    """What a run produced. ``failure`` is set when no plan exists (with the reason)."""
+
+    product: Product
+    geometry: ProductGeometry
+    fidelity: Fidelity
+    sequence: SequencePlan | None = None
+    plan: Plan | None = None
+    results: PlanResults | None = None
+    failure: str = ""
+    failure_evidence: dict[str, Any] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    timings_s: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def success(self) -> bool:
+        """Every step planned and (when simulated) succeeded physically."""
+        if self.failure or self.plan is None:
+            return False
+        return self.results is None or self.results.success
+
+    @property
+    def exit_code(self) -> int:
+        return 0 if self.success else 1
+
+
+def run_product(product: Product | str | Path, settings: RunSettings | None = None, *,
+                progress: Progress | None = None) -> RunResult:
+    """Sequence, plan and simulate ``product`` (a validated Product or a YAML path)."""
+    settings = settings or RunSettings()
+    if not isinstance(product, Product):
+        product = load_product(product)
+    fidelity = settings.fidelity_preset
+    t0 = time.perf_counter()
+    geometry = ProductGeometry(product)
+    result = RunResult(product, geometry, fidelity)
+
+    def tick(stage: str, done: int, total: int, label: str) -> None:
+        if progress is not None:
+            progress(stage, done, total, label)
+
+    tick("sequence", 0, 1, "")
+    try:
+        result.sequence = plan_sequence(product, FclOracle(product, geometry), settings.sequence)
+    except PlanningError as exc:
+        result.failure, result.failure_evidence = str(exc), exc.evidence()
+    t1 = time.perf_counter()
+    result.timings_s["sequence"] = t1 - t0
+    tick("sequence", 1, 1, "")
+    if result.sequence is not None:
+        from .planner.motion import part_data
+
+        def on_step(i: int, n: int, part: str, status: str) -> None:
+            if status == "done":
+                tick("plan", i + 1, n, part)
+
+        try:
+            planned = plan_product(product, settings.planner,
+                                   sequences=ranked_sequences(product, result.sequence),
+                                   parts=part_data(product, settings.planner, geometry),
+                                   progress=on_step)
+            result.plan = planned.plan
+            result.warnings.extend(n for s in planned.plan.steps for n in s.notes)
+        except PlanningError as exc:
+            result.failure, result.failure_evidence = str(exc), exc.evidence()
+    t2 = time.perf_counter()
+    result.timings_s["plan"] = t2 - t1
+    if result.plan is not None and settings.simulate:
+        result.warnings.extend(clearance_warnings(product, fidelity))
+        result.results = simulate_plan(
+            result.plan, product, geometry, fidelity, cull=settings.cull,
+            progress=lambda i, n, part, status: status == "done" and tick("simulate", i + 1, n, part))
+        for step in result.results.steps:
+            if step.kind != "fixture":
+                result.warnings.extend(f"step {step.index} ({step.part}): {w}" for w in step.warnings)
+    result.timings_s["simulate"] = time.perf_counter() - t2
+    result.warnings = list(dict.fromkeys(result.warnings))  # once each, in order
+    return result
+
+
+def write_outputs(result: RunResult, outdir: str | Path, *, report: bool = True,
+                  progress: Progress | None = None) -> Path:
+    """Write plan.json, results.json, sequence.json and the report into ``outdir``.
+
+    The folder is built beside ``outdir`` and swapped in at the end: a crash or Ctrl-C leaves
+    the previous ``outdir`` untouched.
+    """
+    from .report.html import ReportInputs, write_report
+
+    outdir = Path(outdir)
+    t0 = time.perf_counter()
+    with staged_directory(outdir) as stage:
+        if result.sequence is not None:
+            atomic_write_json(stage / "sequence.json", result.sequence.as_dict() | {"timings_s": {}})
+        if result.plan is not None:
+            result.plan.write(stage / "plan.json")
+        if result.results is not None:
+            result.results.write(stage / "results.json")
+        summary = {"product": result.product.name, "success": result.success,
+                   "failure": result.failure, "failure_evidence": result.failure_evidence,
+                   "warnings": result.warnings, "fidelity": result.fidelity.name}
+        atomic_write_json(stage / "summary.json", summary)
+        if report:
+            if progress is not None:
+                progress("report", 0, 1, "")
+            write_report(ReportInputs(result.product, result.geometry, result.sequence, result.plan,
+                                      result.results, result.fidelity, result.failure,
+                                      list(result.warnings)), stage)
+            if progress is not None:
+                progress("report", 1, 1, "")
+    result.timings_s["report"] = time.perf_counter() - t0
+    return outdir

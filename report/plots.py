@@ -1,0 +1,139 @@
+"""Force, depth and contact plots of simulated steps (matplotlib, Agg backend, no display).
+
+Each function draws one figure from a :class:`~asmplan.sim.records.StepRecord` and writes it
+as a PNG atomically; the bytes are deterministic for the same record.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..fileio import atomic_write_bytes
+from ..sim.records import StepRecord
+
+PHASE_COLORS = {
+    "approach": "#f2f2f2", "clamp": "#fde0c5", "hold": "#e6f0d8", "lift": "#d7e8f5",
+    "translate": "#ece2f4", "lower": "#fbe3ea", "insert": "#fbe3ea", "release": "#e8e8e8",
+    "retreat": "#f2f2f2",
+}
+
+
+def _figure(width_in: float = 7.5, height_in: float = 3.2):
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width_in, height_in), dpi=110)
+    return fig, fig.add_subplot(1, 1, 1)
+
+
+def _save(fig, path: str | Path) -> Path:
+    buf = io.BytesIO()
+    fig.tight_layout()
+    fig.savefig(buf, format="png", metadata={"Software": None})
+    return atomic_write_bytes(path, buf.getvalue())
+
+
+def _phase_bands(ax, record: StepRecord) -> None:
+    """Shade each phase span and label it at the top of the axes."""
+    t = record.t_s
+    if t.size == 0:
+        return
+    idx = record.phase_index
+    starts = np.flatnonzero(np.r_[True, idx[1:] != idx[:-1]])
+    ends = np.r_[starts[1:], idx.size]
+    total = max(float(t[-1] - t[0]), 1e-9)
+    for s, e in zip(starts, ends, strict=True):
+        name = record.phase_names[idx[s]]
+        t0 = t[s]
+        t1 = t[e] if e < idx.size else t[-1]
+        ax.axvspan(t0, t1, color=PHASE_COLORS.get(name, "#f4f4f4"), zorder=0, lw=0)
+        if (t1 - t0) / total >= 0.06:  # label only spans wide enough to hold the name
+            ax.text(0.5 * (t0 + t1), 1.0, name, transform=ax.get_xaxis_transform(), ha="center",
+                    va="bottom", fontsize=7, color="#555555")
+
+
+def clamp_force_plot(record: StepRecord, path: str | Path, *, title: str = "",
+                     reference: Sequence[tuple[float, float]] | None = None,
+                     slip_threshold_N: float | None = None, grip_limit_N: float | None = None) -> Path:
+    """Commanded vs simulated clamp force per finger over the cycle (the seed's Fig. 7).
+
+    Parameters
+    ----------
+    reference : optional (t_s, force_N) points of a measured curve to overlay.
+    slip_threshold_N : the analytic slip limit m(g+a)/(2 mu), drawn as a dashed line.
+    grip_limit_N : the gripper's force limit, drawn as a dotted line.
+    """
+    fig, ax = _figure()
+    _phase_bands(ax, record)
+    measured = np.nanmean(record.measured_force_N, axis=1)
+    ax.plot(record.t_s, record.commanded_force_N, color="#1f4e99", lw=1.6, label="commanded")
+    ax.plot(record.t_s, measured, color="#d62728", lw=1.0, label="simulated (mean of fingers)")
+    if reference is not None:
+        rt, rf = zip(*reference, strict=True)
+        ax.plot(rt, rf, "k.", ms=4, label="seed paper")
+    if slip_threshold_N is not None:
+        ax.axhline(slip_threshold_N, color="#ff7f0e", ls="--", lw=1.0,
+                   label=f"slip limit {slip_threshold_N:.2f} N")
+    top = np.nanmax([np.nanmax(record.commanded_force_N, initial=0.0), np.nanmax(measured, initial=0.0),
+                     slip_threshold_N or 0.0])
+    if grip_limit_N is not None:
+        if grip_limit_N <= 1.5 * top:
+            top = max(top, grip_limit_N)
+            ax.axhline(grip_limit_N, color="#444444", ls=":", lw=1.0,
+                       label=f"grip limit {grip_limit_N:.0f} N")
+        else:  # far above: say it rather than squash the curves
+            ax.plot([], [], " ", label=f"grip limit {grip_limit_N:.0f} N (off scale)")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("clamp force per finger [N]")
+    ax.set_ylim(0.0, max(top * 1.25, 0.1))
+    ax.set_xlim(record.t_s[0], record.t_s[-1])
+    ax.legend(loc="lower center", fontsize=7, ncol=2, framealpha=0.9)
+    if title:
+        ax.set_title(title, fontsize=9, pad=14)
+    return _save(fig, path)
+
+
+def insertion_plot(record: StepRecord, path: str | Path, *, target_depth_m: float,
+                   title: str = "") -> Path:
+    """Insertion depth (mm) and contact force on the part (N) over time, on twin axes."""
+    fig, ax = _figure()
+    _phase_bands(ax, record)
+    depth_mm = (target_depth_m - record.axial_error_m) * 1e3
+    force = np.linalg.norm(record.external_force_N, axis=1)
+    ax.plot(record.t_s, depth_mm, color="#2ca02c", lw=1.5, label="insertion depth")
+    ax.axhline(target_depth_m * 1e3, color="#2ca02c", ls=":", lw=1.0, label="seated")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("insertion depth [mm]", color="#2ca02c")
+    ax2 = ax.twinx()
+    ax2.plot(record.t_s, force, color="#9467bd", lw=0.9, label="contact force")
+    ax2.set_ylabel("contact force on part [N]", color="#9467bd")
+    ax.set_xlim(record.t_s[0], record.t_s[-1])
+    lines = ax.get_lines() + ax2.get_lines()
+    ax.legend(lines, [ln.get_label() for ln in lines], loc="upper left", fontsize=7, framealpha=0.9)
+    if title:
+        ax.set_title(title, fontsize=9, pad=14)
+    return _save(fig, path)
+
+
+def rate_plot(x: np.ndarray, rate: np.ndarray, low: np.ndarray, high: np.ndarray, path: str | Path, *,
+              xlabel: str, title: str = "", marks: Sequence[tuple[float, str]] = ()) -> Path:
+    """Success rate with its confidence band against one varied factor (sweeps)."""
+    fig, ax = _figure(6.5, 3.0)
+    ax.fill_between(x, low, high, color="#1f77b4", alpha=0.2, lw=0, label="95 % interval")
+    ax.plot(x, rate, "o-", color="#1f77b4", ms=3, lw=1.2, label="success rate")
+    for value, label in marks:
+        ax.axvline(value, color="#d62728", ls="--", lw=1.0)
+        ax.text(value, 0.02, f" {label}", color="#d62728", fontsize=7, rotation=90, va="bottom")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("success rate")
+    ax.legend(loc="upper right", fontsize=7)
+    if title:
+        ax.set_title(title, fontsize=9)
+    return _save(fig, path)
