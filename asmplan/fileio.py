@@ -71,6 +71,25 @@ def atomic_write_json(path: str | os.PathLike[str], data: Any) -> Path:
     return atomic_write_text(path, dumps_json(data))
 
 
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def _remove_abandoned(target: Path) -> None:
+    """Delete staging folders left by runs that were killed (their process is gone)."""
+    for kind in ("staging", "old"):
+        for folder in target.parent.glob(f".{target.name}.{kind}.*"):
+            pid_text = folder.name[len(f".{target.name}.{kind}."):].split(".", 1)[0]
+            if pid_text.isdigit() and not _pid_alive(int(pid_text)):
+                shutil.rmtree(folder, ignore_errors=True)
+
+
 @contextlib.contextmanager
 def staged_directory(target: str | os.PathLike[str]) -> Iterator[Path]:
     """Build a folder's new contents beside it and swap it in only when the block succeeds.
@@ -82,14 +101,16 @@ def staged_directory(target: str | os.PathLike[str]) -> Iterator[Path]:
     """
     target = Path(target).resolve()
     target.parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=f".{target.name}.staging.", dir=target.parent))
+    _remove_abandoned(target)
+    pid = os.getpid()
+    stage = Path(tempfile.mkdtemp(prefix=f".{target.name}.staging.{pid}.", dir=target.parent))
     os.chmod(stage, 0o777 & ~_UMASK)  # mkdtemp makes 0700; the output folder is a normal one
     try:
         yield stage
         _fsync_dir(stage)
         old = None
         if target.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=target.parent))
+            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.{pid}.", dir=target.parent))
             os.replace(target, old / "previous")
         os.replace(stage, target)
         _fsync_dir(target.parent)

@@ -106,14 +106,18 @@ class Views:
         names = self.product.part_names if parts is None else parts
         return [self.part_item(n, self.product.T_world_assembled(n)) for n in names]
 
-    def render_product(self, folder: Path) -> tuple[str, str]:
-        """Assembled and exploded views; returns their file names."""
+    def exploded_items(self, factor: float = 0.9) -> list[SceneItem]:
+        """The assembled items moved outward and upward from the product's bottom centre."""
         items = self.assembled_items()
-        self.shoot(items, folder / "assembled.png")
         bounds = np.array([it.world_bounds_m() for it in items])
         centre = 0.5 * (bounds[:, 0].min(axis=0) + bounds[:, 1].max(axis=0))
-        centre[2] = bounds[:, 0, 2].min()  # explode upward and outward from the bottom
-        self.shoot(exploded(items, centre, 0.9), folder / "exploded.png")
+        centre[2] = bounds[:, 0, 2].min()
+        return exploded(items, centre, factor)
+
+    def render_product(self, folder: Path) -> tuple[str, str]:
+        """Assembled and exploded views; returns their file names."""
+        self.shoot(self.assembled_items(), folder / "assembled.png")
+        self.shoot(self.exploded_items(), folder / "exploded.png")
         return "assembled.png", "exploded.png"
 
     def render_step(self, plan: Plan, step: Step, folder: Path) -> dict[str, str]:
@@ -137,3 +141,15 @@ class Views:
             self.shoot(items, folder / name, camera=camera)
             out[label] = name
         return out
+
+
+def render_product(product: Product, path: str | Path, geometry=None, *, exploded_view: bool = False,
+                   width_px: int = 800, height_px: int = 600) -> Path:
+    """Render the assembled (or exploded) product offscreen to a PNG at ``path``."""
+    if geometry is None:
+        from ..parts.models import ProductGeometry
+
+        geometry = ProductGeometry(product)
+    views = Views(product, geometry, width_px, height_px)
+    items = views.exploded_items() if exploded_view else views.assembled_items()
+    return views.shoot(items, Path(path))

@@ -1,0 +1,116 @@
+"""`asmplan run`: the whole job, its outputs, exit codes, determinism and atomicity."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from asmplan.cli import main
+from asmplan.pipeline import RunSettings, run_product, write_outputs
+from tests.conftest import REPO, example_path
+
+pytestmark = pytest.mark.slow
+
+
+def digest(folder: Path) -> dict[str, str]:
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir())}
+
+
+def test_run_writes_plan_results_and_a_report_that_shows_them(tmp_path, capsys) -> None:
+    out = tmp_path / "out"
+    code = main(["run", str(example_path("peg_in_hole")), "-o", str(out), "--fidelity", "fast"])
+    stdout = capsys.readouterr().out
+    assert code == 0, stdout
+    assert "peg_in_hole: every step succeeds" in stdout
+    for name in ("plan.json", "results.json", "sequence.json", "summary.json", "report.html",
+                 "assembled.png", "exploded.png", "step01-pick.png", "step01-inserted.png",
+                 "step01-clamp-force.png", "step01-insertion.png"):
+        assert (out / name).is_file(), name
+    html = (out / "report.html").read_text()
+    assert "every step succeeds" in html and "Step 1: peg" in html
+    for img in ("assembled.png", "step01-clamp-force.png"):
+        assert f'src="{img}"' in html
+    # the assembled view shows something: many non-background pixels, varied shading
+    pixels = np.asarray(Image.open(out / "assembled.png").convert("RGB"), dtype=float)
+    non_white = (pixels < 245).any(axis=2).mean()
+    assert 0.05 < non_white < 0.95
+    results = json.loads((out / "results.json").read_text())
+    assert results["steps"][1]["outcome"]["success"] is True
+
+
+def test_same_input_and_seed_give_identical_plan_and_results(tmp_path) -> None:
+    runs = []
+    for i in range(2):
+        result = run_product(example_path("peg_in_hole"), RunSettings(fidelity="fast"))
+        folder = write_outputs(result, tmp_path / f"run{i}", report=False)
+        runs.append(digest(folder))
+    for name in ("plan.json", "results.json", "sequence.json", "summary.json"):
+        assert runs[0][name] == runs[1][name], name
+
+
+def test_physical_failure_exits_1_and_names_the_criterion(tmp_path, capsys) -> None:
+    text = example_path("peg_in_hole").read_text().replace(
+        "precedence:", "process: {max_insertion_force: 0.01}\nprecedence:")
+    product = tmp_path / "weak.yaml"
+    product.write_text(text)
+    code = main(["run", str(product), "-o", str(tmp_path / "out"), "--fidelity", "fast", "--no-report"])
+    stdout = capsys.readouterr().out
+    assert code == 1
+    assert "FAILED" in stdout and "insertion force" in stdout
+    assert "fail physically" in stdout
+
+
+def test_no_plan_exits_1_with_the_obstacle(tmp_path, capsys) -> None:
+    code = main(["run", str(REPO / "tests" / "fixtures" / "blocked_product.yaml"), "-o",
+                 str(tmp_path / "out"), "--fidelity", "fast"])
+    stdout = capsys.readouterr().out
+    assert code == 1
+    assert "no plan" in stdout and "bridge" in stdout
+    # the report is still written and says why
+    assert "No plan" in (tmp_path / "out" / "report.html").read_text()
+
+
+def test_bad_input_exits_2(tmp_path, capsys) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(example_path("peg_in_hole").read_text().replace("diameter: 10, length: 40", "diameter: -1, length: 40"))
+    assert main(["run", str(bad), "-o", str(tmp_path / "out")]) == 2
+    assert "parts[1].geometry.diameter: expected a positive length" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
+def test_killing_a_run_midway_leaves_the_previous_outdir_intact(tmp_path, sig) -> None:
+    out = tmp_path / "out"
+    assert main(["run", str(example_path("peg_in_hole")), "-o", str(out), "--fidelity", "fast",
+                 "--no-report"]) == 0
+    before = digest(out)
+    proc = subprocess.Popen([sys.executable, "-m", "asmplan", "run", str(example_path("pinhole_station")),
+                             "-o", str(out), "--fidelity", "fast"], stderr=subprocess.PIPE, text=True,
+                            cwd=tmp_path)
+    # wait until it is simulating (outputs are being produced), then kill it
+    deadline = time.monotonic() + 120
+    assert proc.stderr is not None
+    for line in proc.stderr:
+        if line.startswith("simulate:") or time.monotonic() > deadline:
+            break
+    os.kill(proc.pid, sig)
+    proc.wait(timeout=60)
+    assert proc.returncode != 0
+    assert digest(out) == before
+    if sig == signal.SIGINT:  # a clean interrupt removes its staging folder at once
+        assert proc.returncode == 130
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    # the next run cleans what a killed one left behind and replaces the folder whole
+    assert main(["run", str(example_path("peg_in_hole")), "-o", str(out), "--fidelity", "fast",
+                 "--no-report"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
