@@ -1,0 +1,233 @@
+"""Whole plans simulated step by step: success, named failures, warnings, determinism, CLI."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from test_scene import plan_for
+
+from asmplan.cli import main
+from asmplan.knowledge.model import Mate
+from asmplan.planner.plan import Plan, Step
+from asmplan.planner.trajectory import Trajectory
+from asmplan.sim.fidelity import ACCURATE, BALANCED, FAST
+from asmplan.sim.simulate import (
+    PlanResults,
+    clearance_warnings,
+    simulate_plan,
+    simulate_step,
+)
+
+G = 9.81
+
+
+def _with_step(plan: Plan, step: Step) -> Plan:
+    steps = tuple(step if s.index == step.index else s for s in plan.steps)
+    return dataclasses.replace(plan, steps=steps)
+
+
+def _with_trajectory(plan: Plan, part: str, **changes: np.ndarray) -> Plan:
+    step = plan.step(part)
+    assert step.trajectory is not None
+    traj = dataclasses.replace(step.trajectory, **changes)
+    return _with_step(plan, dataclasses.replace(step, trajectory=traj))
+
+
+# ---------------------------------------------------------------------------------------------
+# Every step of the examples' plans
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_pinhole_station_plan_succeeds_at_every_step():
+    plan, product, geo = plan_for("pinhole_station")
+    results = simulate_plan(plan, product, geo, BALANCED)
+    assert results.success, [(s.part, s.reasons) for s in results.steps]
+    assert [s.simulated for s in results.steps] == [False, True, True, True]  # part1 fixtured
+    tol = product.process.position_tolerance_m
+    for s in results.steps[1:]:
+        o, rec = s.outcome, s.record
+        assert o.final_position_error_m < tol and o.final_axial_error_m < 0.5e-3
+        assert o.max_slip_m < product.process.max_slip_m
+        # measured clamp force (summed pad normal forces) follows the command while held
+        held = rec.phase_mask("hold", "lift", "translate")
+        err = np.abs(rec.measured_force_N[held] - rec.commanded_force_N[held, None])
+        assert np.max(err) < 0.05 * s.outcome.peak_clamp_force_N, s.part
+        # each criterion is reported with its value and limit
+        assert s.criteria["position"]["limit"] == pytest.approx(tol)
+        assert s.criteria["slip"]["limit"] == pytest.approx(product.process.max_slip_m)
+        assert s.criteria["insertion_force"]["limit"] == pytest.approx(
+            product.process.max_insertion_force_N)
+        assert all(c["ok"] for c in s.criteria.values())
+        # the scene left out what the step does not need
+        names = [b["name"] for b in s.scene["bodies"]]
+        assert not set(names) & {n["name"] for n in s.scene["left_out"]}
+    # the H7/g6 fits (5 um) are below what BALANCED resolves: said before simulating
+    assert len(results.warnings) == len(product.mates)
+    assert any("below this fidelity's smallest resolvable" in w for w in results.steps[1].warnings)
+
+
+# ---------------------------------------------------------------------------------------------
+# Failures name their criterion
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_clamp_force_far_below_coulomb_slips_and_drops():
+    plan, product, geo = plan_for("peg_in_hole")
+    step = plan.step("peg")
+    coulomb = step.clamp.mass_kg * (G + step.clamp.acceleration_m_s2) / (2 * step.clamp.mu)
+    weak = step.trajectory.clamp_force_N * (0.1 * coulomb / step.clamp.commanded_N)
+    bad = _with_trajectory(plan, "peg", clamp_force_N=weak)
+    result = simulate_step(bad, step.index, product, geo, BALANCED)
+    assert not result.success
+    assert {"drop", "slip"} <= set(result.failed_criteria)
+    assert any(r.startswith("slip ") and "> limit 1.000 mm" in r for r in result.reasons)
+    assert result.criteria["slip"]["value"] > result.criteria["slip"]["limit"]
+
+
+@pytest.mark.slow
+def test_insertion_off_the_hole_axis_fails_on_depth_and_position():
+    plan, product, geo = plan_for("peg_in_hole")
+    step = plan.step("peg")
+    traj = step.trajectory
+    # from the lower phase on, the gripper misses the hole axis by 12 mm: the 10 mm peg comes
+    # down beside the 10 mm hole, on the block's top face
+    t_lower = traj.phase_span("lower").t_start_s
+    T = traj.T_world_gripper.copy()
+    ramp = np.clip((traj.t_s - (t_lower - 0.5)) / 0.5, 0.0, 1.0)
+    T[:, 0, 3] += 12e-3 * ramp
+    bad = _with_step(plan, dataclasses.replace(step, trajectory=Trajectory(
+        traj.t_s, T, traj.clamp_force_N, traj.phases)))
+    result = simulate_step(bad, step.index, product, geo, BALANCED)
+    assert not result.success
+    assert {"insertion_depth", "position"} <= set(result.failed_criteria)
+    depth = result.criteria["insertion_depth"]["value"]
+    assert depth > 15e-3  # stopped on the block's top face, ~20 mm short of the floor
+    assert any("insertion depth not reached" in r for r in result.reasons)
+
+
+# ---------------------------------------------------------------------------------------------
+# Warnings before simulating
+# ---------------------------------------------------------------------------------------------
+def test_low_clearance_warning_says_how_to_read_the_result():
+    _, product, _ = plan_for("pinhole_station")
+    warnings = clearance_warnings(product, FAST)
+    # every H7/g6 and H8/f7 fit (5-10 um) is below FAST's 0.4 mm
+    assert len(warnings) == len(product.mates)
+    w = next(w for w in warnings if w.startswith("mate m21a "))
+    assert "H7/g6" in w and "0.005 mm" in w and "fast preset resolves (0.400 mm)" in w
+    assert "A success means the pin fits at this preset's resolution" in w
+    assert "No preset resolves it" in w  # 5 um is below ACCURATE's 20 um too
+
+    def with_clearance(c: float) -> object:
+        m = dataclasses.replace(product.mates[0], clearance_min_m=c)
+        return dataclasses.replace(product, mates=(m,))
+
+    (w,) = clearance_warnings(with_clearance(0.1e-3), FAST)
+    assert "Run --fidelity balanced to resolve it" in w
+    (w,) = clearance_warnings(with_clearance(0.03e-3), BALANCED)
+    assert "Run --fidelity accurate to resolve it" in w
+    assert clearance_warnings(with_clearance(0.5e-3), FAST) == ()
+    assert clearance_warnings(with_clearance(0.02e-3), ACCURATE) == ()
+    (w,) = clearance_warnings(with_clearance(-0.01e-3), ACCURATE)
+    assert "cannot be modelled by rigid bodies" in w
+    assert isinstance(product.mates[0], Mate)
+
+
+# ---------------------------------------------------------------------------------------------
+# Culling
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_culled_and_whole_scene_agree(capsys):
+    plan, product, geo = plan_for("gear_unit")
+    k = plan.step("bearing_block").index
+    t0 = time.perf_counter()
+    culled = simulate_step(plan, k, product, geo, BALANCED, cull=True)
+    t1 = time.perf_counter()
+    whole = simulate_step(plan, k, product, geo, BALANCED, cull=False)
+    t2 = time.perf_counter()
+    assert len(culled.scene["bodies"]) == 4 and len(whole.scene["bodies"]) == 10
+    assert culled.success and whole.success, (culled.reasons, whole.reasons)
+    # the far parts do not change the physics of this step
+    assert whole.outcome.final_position_error_m == pytest.approx(
+        culled.outcome.final_position_error_m, abs=20e-6)
+    with capsys.disabled():
+        print(f"\ngear_unit bearing_block at balanced: culled {t1 - t0:.2f} s, whole scene "
+              f"{t2 - t1:.2f} s (ratio {(t2 - t1) / (t1 - t0):.2f})")
+
+
+# ---------------------------------------------------------------------------------------------
+# Results file, determinism and the command line
+# ---------------------------------------------------------------------------------------------
+def _plan_file(tmp_path, plan: Plan, name: str = "plan.json"):
+    path = tmp_path / name
+    plan.write(path)
+    return path
+
+
+@pytest.mark.slow
+def test_cli_results_are_bit_identical_and_round_trip(tmp_path, capsys):
+    plan, _, _ = plan_for("peg_in_hole")
+    plan_file = _plan_file(tmp_path, plan)
+    outs = []
+    for name in ("a", "b"):
+        out = tmp_path / f"{name}.json"
+        assert main(["simulate", str(plan_file), "--fidelity", "balanced", "-o", str(out)]) == 0
+        outs.append(out)
+    printed = capsys.readouterr()
+    assert "step 2 peg: ok" in printed.out and "all steps succeeded" in printed.out
+    assert "warning: mate peg.tip->block.hole" in printed.err
+    a, b = (p.read_bytes() for p in outs)
+    assert a == b
+    assert b"wall_time" not in a  # timing lives beside it
+    timing = json.loads((tmp_path / "a.timing.json").read_text())
+    assert timing["steps"][1]["simulate_s"] > 0
+    results = PlanResults.from_json(a.decode())
+    assert results.to_json().encode() == a
+    assert results.success and results.fidelity == BALANCED
+    rec = results.steps[1].record
+    assert rec.n_ticks > 1000 and rec.phase_names[0] == "approach"
+
+
+@pytest.mark.slow
+def test_cli_exit_1_names_the_failed_criterion(tmp_path, capsys):
+    plan, _, _ = plan_for("peg_in_hole")
+    step = plan.step("peg")
+    bad = _with_trajectory(plan, "peg", clamp_force_N=step.trajectory.clamp_force_N * 0.05)
+    plan_file = _plan_file(tmp_path, bad)
+    code = main(["simulate", str(plan_file), "--fidelity", "fast", "-o",
+                 str(tmp_path / "r.json")])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "step 2 (peg) failed:" in err and "slip" in err
+    assert "- slip " in err and "mm > limit 1.000 mm" in err
+    data = json.loads((tmp_path / "r.json").read_text())
+    assert data["success"] is False and data["failed_steps"] == [1]
+
+
+def test_cli_bad_input_exits_2_naming_the_file(tmp_path, capsys):
+    not_plan = tmp_path / "product.json"
+    not_plan.write_text('{"product": "x"}')
+    assert main(["simulate", str(not_plan)]) == 2
+    err = capsys.readouterr().err
+    assert f"{not_plan}: not a valid asmplan plan" in err and "Traceback" not in err
+    yaml_file = tmp_path / "p.yaml"
+    yaml_file.write_text("asmplan: 1\n")
+    assert main(["simulate", str(yaml_file)]) == 2
+    assert f"{yaml_file}:1:1: expected a JSON plan" in capsys.readouterr().err
+    assert main(["simulate", str(tmp_path / "missing.json")]) == 2
+    assert "plan file not found" in capsys.readouterr().err
+    plan, _, _ = plan_for("peg_in_hole")
+    lost = _plan_file(tmp_path, dataclasses.replace(plan, source="nowhere/peg.yaml"))
+    assert main(["simulate", str(lost)]) == 2
+    assert 'product file "nowhere/peg.yaml" was not found' in capsys.readouterr().err
+
+
+def test_cli_help_prints_no_engine_noise():
+    out = subprocess.run([sys.executable, "-m", "asmplan", "simulate", "--help"],
+                         capture_output=True, text=True, check=True)
+    assert "--fidelity {accurate,balanced,fast}" in out.stdout
+    assert out.stderr == ""  # e.g. no "pybullet build time" line
