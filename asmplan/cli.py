@@ -16,7 +16,7 @@ from .knowledge.errors import ProductError
 
 # subcommand name -> module in asmplan.commands defining `register(subparsers)`; the parser
 # each registers carries `func(args) -> int` as its default.
-COMMANDS = ("run", "validate", "graph", "check", "sequence", "plan", "simulate")
+COMMANDS = ("run", "validate", "graph", "check", "sequence", "plan", "simulate", "sweep")
 
 
 def build_parser() -> argparse.ArgumentParser:

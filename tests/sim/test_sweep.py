@@ -573,3 +573,32 @@ def test_a_pose_sweep_of_a_real_step_fails_beyond_clearance_plus_chamfer(loose_p
     assert "wall_time_s" not in inside["outcome"]
     summary = sw.summarize(samples, results, ("pose",))
     assert (summary.step("peg").n, summary.step("peg").successes) == (2, 1)
+
+
+@pytest.mark.slow
+def test_the_sweep_command_writes_results_resumes_and_refuses_another_sweep(
+        loose_peg_sweep: sw.PlanSweep, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from asmplan.cli import main
+
+    product = str(loose_peg_sweep.product.source)
+    out = tmp_path / "sweep"
+    argv = ["sweep", product, "--samples", "2", "--vary", "pose", "--pose-dist", "uniform",
+            "--pose-lateral", "1.5", "--pose-angular", "0", "--fidelity", "fast", "--workers", "2",
+            "-o", str(out)]
+    assert main(argv) == 0
+    first = capsys.readouterr()
+    data = json.loads((out / "sweep.json").read_text())
+    assert data["spec"]["n_samples"] == 2 and data["spec"]["vary"] == ["pose"]
+    assert data["capture_m"]["peg"] == pytest.approx(0.075e-3 + 0.5e-3)
+    st = data["summary"]["steps"][0]
+    assert st["step"] == "peg" and st["n"] == 2
+    assert (out / "sweep-peg.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert f"step peg: success {st['successes']}/2" in first.out
+    # the same command again: everything comes from the journal, same numbers
+    assert main(argv) == 0
+    again = capsys.readouterr()
+    assert "resuming, 2 samples already" in again.err
+    assert json.loads((out / "sweep.json").read_text())["summary"] == data["summary"]
+    # another seed in the same folder is refused as bad input, naming the difference
+    assert main([*argv, "--seed", "5"]) == 2
+    assert "spec.seed: journal has 0, this run has 5" in capsys.readouterr().err
