@@ -96,9 +96,11 @@ def run(args: argparse.Namespace) -> int:
                   file=sys.stderr)
     from ..sim.fidelity import preset
     from ..sim.scene import PlanProductMismatchError
-    from ..sim.simulate import simulate_plan
+    from ..sim.simulate import clearance_warnings, simulate_plan
 
     fidelity = preset(args.fidelity)
+    for w in clearance_warnings(product, fidelity):  # before simulating: how to read the rest
+        print(f"warning: {w}", file=sys.stderr)
 
     def progress(k: int, n: int, part: str, status: str) -> None:
         if status == "start":
@@ -115,8 +117,6 @@ def run(args: argparse.Namespace) -> int:
     timing_path = Path(args.timing) if args.timing else out.with_name(f"{out.stem}.timing.json")
     atomic_write_json(timing_path, results.timing())
 
-    for w in results.warnings:
-        print(f"warning: {w}", file=sys.stderr)
     n_sim = sum(s.simulated for s in results.steps)
     for s in results.steps:
         if not s.simulated:
