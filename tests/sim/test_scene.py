@@ -71,6 +71,7 @@ def test_rect_minus_covers_exactly_the_rectangle_outside_the_pockets(pockets, se
 # ---------------------------------------------------------------------------------------------
 # Tray nest
 # ---------------------------------------------------------------------------------------------
+@pytest.mark.slow  # plans the example once per session
 def test_nest_supports_the_bottom_face_with_pockets_around_the_pins():
     plan, _, geo = plan_for("pinhole_station")
     step = plan.step("part2")  # box 100 x 60 x 20 mm, two 8 mm pins 8 mm long pointing down
@@ -116,6 +117,7 @@ def test_part_rests_still_on_its_nest():
     assert pins_touch == 0  # the pins hang in the pockets, 2 mm above the table
 
 
+@pytest.mark.slow  # plans the example once per session
 def test_part_standing_on_the_table_gets_no_nest():
     plan, product, geo = plan_for("peg_in_hole")
     step = plan.step("peg")
@@ -128,6 +130,7 @@ def test_part_standing_on_the_table_gets_no_nest():
 # ---------------------------------------------------------------------------------------------
 # Selection and culling
 # ---------------------------------------------------------------------------------------------
+@pytest.mark.slow  # plans the example once per session
 def test_culled_scene_holds_only_the_required_bodies():
     plan, product, geo = plan_for("gear_unit")
     step = plan.step("bearing_block")

@@ -226,6 +226,7 @@ def test_cli_bad_input_exits_2_naming_the_file(tmp_path, capsys):
     assert 'product file "nowhere/peg.yaml" was not found' in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_cli_help_prints_no_engine_noise():
     out = subprocess.run([sys.executable, "-m", "asmplan", "simulate", "--help"],
                          capture_output=True, text=True, check=True)
