@@ -20,8 +20,11 @@ Four pieces, usable on their own:
   interval, the failure reasons counted, and per varied factor the success rate in bins, the
   point-biserial correlation and a one-factor logistic fit (which factor drives the failures).
 
-Nothing here imports pybullet: the physics lives in the task (``asmplan.sim.bullet``), which is
-a plain picklable callable.
+A fifth piece wires these to the simulator: :class:`PlanSweep` (product, plan, fidelity),
+:func:`perturb_product` (sampled clearances and friction), :func:`apply_pose_error` (the
+robot's error on a step's trajectory) and the task :func:`simulate_sample`, which calls
+:func:`asmplan.sim.simulate.simulate_step` per step. Importing this module loads no pybullet:
+the task imports the simulator when it runs, in the worker.
 
 Distributions (documented once; see :class:`SweepSpec`)
 -------------------------------------------------------
