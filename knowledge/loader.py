@@ -174,6 +174,7 @@ PROCESS = Map({
     "max_acceleration": Field(Num("acceleration", positive=True)),
     "insertion_speed": Field(Num("speed", positive=True)),
     "max_insertion_force": Field(Num(positive=True)),
+    "insertion_resistance": Field(Num(nonnegative=True)),
     "lift_height": Field(Num("length", positive=True)),
     "approach_distance": Field(Num("length", positive=True)),
     "position_tolerance": Field(Num("length", positive=True)),
@@ -499,6 +500,7 @@ class _Builder:
             return Process()
         names = {"max_speed": "max_speed_m_s", "max_acceleration": "max_acceleration_m_s2",
                  "insertion_speed": "insertion_speed_m_s", "max_insertion_force": "max_insertion_force_N",
+                 "insertion_resistance": "insertion_resistance_N",
                  "lift_height": "lift_height_m", "approach_distance": "approach_distance_m",
                  "position_tolerance": "position_tolerance_m", "max_slip": "max_slip_m"}
         return Process(**{names.get(k, k): val for k, val in v.items()

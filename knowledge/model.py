@@ -238,6 +238,7 @@ class Process:
     max_acceleration_m_s2: float = 2.0
     insertion_speed_m_s: float = 0.01
     max_insertion_force_N: float = 50.0
+    insertion_resistance_N: float = 0.0
     lift_height_m: float = 0.05
     approach_distance_m: float = 0.02
     position_tolerance_m: float = 0.5e-3

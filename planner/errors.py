@@ -172,7 +172,11 @@ class GripInfeasibleError(PlanningError):
 
     def __init__(self, part: str, required_N: float, limit_N: float, limit_source: str,
                  mass_kg: float, mu: float, acceleration_m_s2: float, safety_factor: float,
-                 step: int | None = None) -> None:
+                 step: int | None = None, *, lever_m: float = 0.0, pad_width_m: float = 0.0,
+                 resistance_N: float = 0.0) -> None:
+        self.lever_m = float(lever_m)
+        self.pad_width_m = float(pad_width_m)
+        self.resistance_N = float(resistance_N)
         self.required_N = float(required_N)
         self.limit_N = float(limit_N)
         self.limit_source = limit_source
@@ -184,8 +188,12 @@ class GripInfeasibleError(PlanningError):
         super().__init__(
             f"{where}: grip infeasible: needs {self.required_N:.2f} N per finger "
             f"(= {self.safety_factor:g} x {self.mass_kg:.4f} kg x (9.81 + "
-            f"{self.acceleration_m_s2:g}) m/s^2 / (2 x mu {self.mu:.3f})) but the "
-            f"{limit_source} is {self.limit_N:.2f} N", step, part)
+            f"{self.acceleration_m_s2:g}) m/s^2 / (2 x mu {self.mu:.3f})"
+            + (f" x (1 + 4 x lever {self.lever_m * 1e3:.1f} mm / pad {self.pad_width_m * 1e3:.0f} mm)"
+               if self.lever_m > 0 else "")
+            + (f" + {self.safety_factor:g} x resistance {self.resistance_N:g} N / (2 mu)"
+               if self.resistance_N > 0 else "")
+            + f") but the {limit_source} is {self.limit_N:.2f} N", step, part)
 
     def evidence(self) -> dict[str, Any]:
         return {**super().evidence(), "required_N": self.required_N, "limit_N": self.limit_N,

@@ -56,6 +56,7 @@ from ..parts.collision import CollisionWorld, Contact, FclShapes
 from ..parts.pieces import CollisionModel, ConvexPiece
 from .errors import (
     CollidingPair,
+    GripInfeasibleError,
     InsertionBlockedError,
     NoGraspError,
     NoPathError,
@@ -962,6 +963,20 @@ class MotionPlanner:
                          T_final: np.ndarray, obstacles: list[str], grasp_rank: int,
                          insertion_sampled_m: float) -> tuple[Step, float, float, int]:
         product, settings, scene = self.product, self.settings, self.scene
+        # the grip must also hold the moment of an off-centre grasp about the closing axis
+        offset = self.parts[part].com_m - g.T_part_gripper[:3, 3]
+        y = g.T_part_gripper[:3, 1]
+        perp = offset - (offset @ y) * y  # part frame, normal to the closing axis
+        lever = float(np.linalg.norm(perp))
+        # gravity turns the part only through the horizontal part of the lever, at the pick
+        # and at the insertion pose (orientations in between are blends of these two)
+        R_s, R_f = self.start_poses[part][:3, :3], product.T_world_assembled(part)[:3, :3]
+        gravity_lever = max(float(np.linalg.norm((R @ perp)[:2])) for R in (R_s, R_f))
+        try:
+            clamp = clamp_force(product, part, clamp.mass_kg, step=index, lever_m=lever,
+                                gravity_lever_m=gravity_lever)
+        except GripInfeasibleError as exc:
+            raise _GraspFailed(f"grip infeasible for this grasp: {exc}", exc) from None
         scene.use_gripper(g)
         t0 = time.perf_counter()
         T_gp = g.T_part_gripper

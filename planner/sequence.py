@@ -668,8 +668,8 @@ class _Compiled:
                     continue
                 other = m.hole_part if p == m.pin_part else m.pin_part
                 i = find(mate_insertion_direction(product, m.name, p))
-                if i is not None:
-                    mdirs.append((1 << idx[other], i))
+                # -1: the mate's direction is not usable at all (e.g. into the table)
+                mdirs.append((1 << idx[other], -1 if i is None else i))
             down = find(np.array([0.0, 0.0, -1.0]))
             rest = ([down] if down is not None else []) + [i for i in usable if i != down]
             self.head.append(head)
@@ -734,11 +734,16 @@ class _Compiled:
         free = {i for i, m in self.dir_masks[p] if not (m & done)}
         if not free:
             return -1
+        # a feature enters its mate from the mouth side: every mate with a part already
+        # present fixes the insertion direction, and two different ones cannot both be met
+        required = {i for partner, i in self.mate_dirs[p] if partner & done}
+        if required:
+            if len(required) > 1 or -1 in required:
+                return -1
+            (i,) = required
+            return i if i in free else -1
         for i in self.head[p]:
             if i in free:
-                return i
-        for partner, i in self.mate_dirs[p]:
-            if partner & done and i in free:
                 return i
         for i in self.rest[p]:
             if i in free:

@@ -80,7 +80,12 @@ def motion_limits(product: Product, part: str) -> MotionLimits:
 
 @dataclass(frozen=True)
 class ClampForce:
-    """The commanded per-finger clamp force and how it was derived (SI)."""
+    """The commanded per-finger clamp force and how it was derived (SI).
+
+    ``translational_N`` = m (g + a) / (2 mu) is the classic slip limit of a two-finger grip;
+    ``required_N`` adds the moment of an off-centre grasp and the insertion resistance and
+    multiplies by the safety factor (see :func:`clamp_force`).
+    """
 
     commanded_N: float
     required_N: float
@@ -90,26 +95,47 @@ class ClampForce:
     safety_factor: float
     limit_N: float
     limit_source: str
+    translational_N: float = math.nan
+    lever_m: float = 0.0
+    pad_width_m: float = 0.0
+    resistance_N: float = 0.0
 
     @property
     def slip_limit_N(self) -> float:
         """The analytic slip limit m (g + a) / (2 mu) without the safety factor, N."""
-        return self.required_N / self.safety_factor
+        if math.isfinite(self.translational_N):
+            return self.translational_N
+        return self.mass_kg * (G_M_S2 + self.acceleration_m_s2) / (2.0 * self.mu)
 
     def as_dict(self) -> dict[str, float | str]:
         return {"commanded_N": self.commanded_N, "required_N": self.required_N,
                 "mass_kg": self.mass_kg, "mu": self.mu,
                 "acceleration_m_s2": self.acceleration_m_s2,
                 "safety_factor": self.safety_factor, "limit_N": self.limit_N,
-                "limit_source": self.limit_source}
+                "limit_source": self.limit_source, "translational_N": self.slip_limit_N,
+                "lever_m": self.lever_m, "pad_width_m": self.pad_width_m,
+                "resistance_N": self.resistance_N}
 
 
 def clamp_force(product: Product, part: str, mass_kg: float,
-                acceleration_m_s2: float | None = None, step: int | None = None) -> ClampForce:
+                acceleration_m_s2: float | None = None, step: int | None = None, *,
+                lever_m: float = 0.0, gravity_lever_m: float | None = None,
+                pad_width_m: float | None = None) -> ClampForce:
     """Per-finger clamp force to carry ``part`` (mass ``mass_kg``) with the product's gripper.
 
-    ``F = safety_factor * m (g + a) / (2 mu)``, ``mu = finger_friction * part friction``,
-    ``a`` the part's acceleration limit unless given. Raises :class:`GripInfeasibleError`
+    ``F = sf [(m g (1 + 4 d_g / W) + m a (1 + 4 d / W)) / (2 mu) + R / (2 mu)]`` with
+    ``sf`` the safety factor, ``mu = finger_friction * part friction`` (PyBullet multiplies),
+    ``a`` the part's acceleration limit unless given, ``d`` (``lever_m``) the distance of the
+    centre of mass from the fingers' closing axis, ``d_g`` (``gravity_lever_m``, default
+    ``d``) its horizontal part (gravity only makes a moment with that), ``W`` (``pad_width_m``,
+    default the finger width) the length of the pad contact and ``R`` the product's
+    ``insertion_resistance_N`` (default 0). With a centred grasp and ``R = 0`` this is the
+    classic ``sf m (g + a) / (2 mu)``.
+
+    The moment terms: a load f at lever d makes a moment f d about the closing axis, which the
+    pads resist by friction; a line contact of length W under a normal force F resists at most
+    mu F W / 4 per pad, so the moment alone needs F = 2 f d / (mu W). Adding the slip and twist
+    utilisations is the conservative linear interaction. Raises :class:`GripInfeasibleError`
     when ``F`` exceeds the gripper's ``max_force_N`` or the part's ``max_clamp_force_N``.
     """
     if not (math.isfinite(mass_kg) and mass_kg > 0):
@@ -120,19 +146,28 @@ def clamp_force(product: Product, part: str, mass_kg: float,
         else float(acceleration_m_s2)
     mu = float(gripper.finger_friction) * float(p.friction)
     sf = float(product.process.safety_factor)
+    width = float(gripper.finger_size_m[0]) if pad_width_m is None else float(pad_width_m)
+    resistance = float(product.process.insertion_resistance_N)
     limit, source = float(gripper.max_force_N), "gripper max_force"
     if p.handling.max_clamp_force_N is not None and p.handling.max_clamp_force_N < limit:
         limit, source = float(p.handling.max_clamp_force_N), "part max_clamp_force"
     if mu <= 0:
         raise GripInfeasibleError(part, math.inf, limit, source, mass_kg, mu, a, sf, step)
-    required = sf * mass_kg * (G_M_S2 + a) / (2.0 * mu)
+    translational = mass_kg * (G_M_S2 + a) / (2.0 * mu)
+    d = max(float(lever_m), 0.0)
+    d_g = d if gravity_lever_m is None else min(max(float(gravity_lever_m), 0.0), d)
+    required = sf * ((mass_kg * G_M_S2 * (1.0 + 4.0 * d_g / width)
+                      + mass_kg * a * (1.0 + 4.0 * d / width)) / (2.0 * mu)
+                     + resistance / (2.0 * mu))
     if required > limit:
-        raise GripInfeasibleError(part, required, limit, source, mass_kg, mu, a, sf, step)
+        raise GripInfeasibleError(part, required, limit, source, mass_kg, mu, a, sf, step,
+                                  lever_m=lever_m, pad_width_m=width, resistance_N=resistance)
     commanded = max(required, float(gripper.min_force_N))
     if commanded > limit:  # the gripper cannot squeeze gently enough for this part
         raise GripInfeasibleError(part, commanded, limit, source + " (below gripper min_force)",
                                   mass_kg, mu, a, sf, step)
-    return ClampForce(commanded, required, mass_kg, mu, a, sf, limit, source)
+    return ClampForce(commanded, required, mass_kg, mu, a, sf, limit, source, translational,
+                      float(lever_m), width, resistance)
 
 
 def min_jerk_duration_s(length_m: float, max_speed_m_s: float, max_acceleration_m_s2: float

@@ -263,6 +263,7 @@ def test_too_heavy_part_is_a_grip_failure_with_numbers(examples, geometry_cache)
             as err:
         plan_product(product, PlannerSettings(), sequence=ORDERS["pinhole_station"],
                      parts=parts)
-    # 2 x 2.0 kg x (9.81 + 2.0) / (2 x 1.0 x 0.45) = 52.5 N > 40 N
+    # 2 x 2.0 kg x (9.81 + 2.0) / (2 x 1.0 x 0.45) = 52.5 N > 40 N (found before any grasp is
+    # tried, so without a moment term; no insertion resistance is declared)
     assert err.value.required_N == pytest.approx(2 * 2.0 * 11.81 / 0.9, rel=1e-9)
     assert err.value.limit_N == 40.0

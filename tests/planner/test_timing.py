@@ -50,18 +50,19 @@ def test_clamp_force_matches_formula_and_limits(examples):
     mass = 0.1128
     cf = clamp_force(product, "part3", mass)
     mu = 1.0 * part.friction
-    expected = product.process.safety_factor * mass * (G_M_S2 + 2.0) / (2 * mu)
+    R = product.process.insertion_resistance_N  # 1 N default, carried through the pads
+    expected = product.process.safety_factor * (mass * (G_M_S2 + 2.0) + R) / (2 * mu)
     assert cf.mu == pytest.approx(mu, rel=1e-12)
     assert cf.required_N == pytest.approx(expected, rel=1e-12)
     assert cf.commanded_N == pytest.approx(expected, rel=1e-12)
     assert cf.acceleration_m_s2 == pytest.approx(product.process.max_acceleration_m_s2)
     # the gripper limit (40 N) is exceeded by a heavy part: a typed error with the numbers
-    heavy = 40.0 * 2 * mu / (product.process.safety_factor * (G_M_S2 + 2.0)) * 1.01
-    with pytest.raises(GripInfeasibleError, match=r"needs 40\.4\d N per finger .* gripper "
+    heavy = (40.0 * 2 * mu / product.process.safety_factor - R) / (G_M_S2 + 2.0) * 1.01
+    with pytest.raises(GripInfeasibleError, match=r"needs 40\.\d\d N per finger .* gripper "
                                                     r"max_force is 40\.00 N") as err:
         clamp_force(product, "part3", heavy, step=2)
     assert err.value.evidence()["limit_source"] == "gripper max_force"
-    assert err.value.required_N == pytest.approx(40.4, rel=1e-3)
+    assert err.value.required_N == pytest.approx(2 * (heavy * (G_M_S2 + 2.0) + R) / (2 * mu), rel=1e-9)
 
 
 def test_part_clamp_limit_is_checked(examples):
@@ -123,3 +124,27 @@ def test_trajectory_phases_limits_and_forces(examples):
     d = phase_durations_s(traj)
     assert d["clamp"] == pytest.approx(settings.clamp_s)
     assert d["release"] == pytest.approx(settings.release_s)
+
+
+def test_clamp_force_adds_the_moment_of_an_off_centre_grasp_and_the_insertion_resistance(examples):
+    """F = sf [(m g (1 + 4 d_g / W) + m a (1 + 4 d / W)) / (2 mu) + R / (2 mu)]: a line contact
+    of length W resists at most mu F W / 4 per pad about the closing axis (uniform pressure)."""
+    import dataclasses
+
+    from asmplan.planner.timing import clamp_force
+
+    product = examples["pinhole_station"]  # finger width 20 mm, mu = 1.0 x 0.45 for POM
+    product = dataclasses.replace(product, process=dataclasses.replace(
+        product.process, insertion_resistance_N=1.0))
+    m, a, mu, sf, W, R = 0.1, 2.0, 0.45, 2.0, 0.020, 1.0
+    centred = clamp_force(product, "part3", m)
+    off = clamp_force(product, "part3", m, lever_m=0.010)
+    below = clamp_force(product, "part3", m, lever_m=0.010, gravity_lever_m=0.0)
+    base = m * (9.81 + a) / (2 * mu)
+    assert centred.slip_limit_N == pytest.approx(base, rel=1e-9)
+    assert centred.required_N == pytest.approx(sf * (base + R / (2 * mu)), rel=1e-9)
+    assert off.required_N == pytest.approx(sf * (base * (1 + 4 * 0.010 / W) + R / (2 * mu)), rel=1e-9)
+    # centre of mass straight below the fingers: gravity makes no moment, acceleration does
+    assert below.required_N == pytest.approx(
+        sf * ((m * 9.81 + m * a * (1 + 4 * 0.010 / W)) / (2 * mu) + R / (2 * mu)), rel=1e-9)
+    assert off.slip_limit_N == centred.slip_limit_N  # the classic limit is still reported
