@@ -7,8 +7,10 @@ as a PNG atomically; the bytes are deterministic for the same record.
 from __future__ import annotations
 
 import io
+import math
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -136,4 +138,59 @@ def rate_plot(x: np.ndarray, rate: np.ndarray, low: np.ndarray, high: np.ndarray
     ax.legend(loc="upper right", fontsize=7)
     if title:
         ax.set_title(title, fontsize=9)
+    return _save(fig, path)
+
+
+_UNITS = {"pose_lateral_m": (1e3, "mm"), "pose_angular_rad": (180.0 / math.pi, "deg")}
+
+
+def factor_unit(factor: str) -> tuple[float, str]:
+    """Display scale and unit of a swept factor (lengths in mm, angles in degrees)."""
+    if factor.startswith("clearance["):
+        return 1e3, "mm"
+    return _UNITS.get(factor, (1.0, ""))
+
+
+def sweep_step_plot(step: Any, capture_m: float | None, path: str | Path) -> Path:
+    """Success rate (Wilson 95 % bars) per bin of every varied factor of one swept step
+    (a :class:`~asmplan.sim.sweep.StepSummary`); ``capture_m`` marks clearance/2 + chamfer."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.figure import Figure
+
+    effects = [e for e in step.effects if e.bins]
+    n = max(1, len(effects))
+    cols = min(3, n)
+    rows = math.ceil(n / cols)
+    fig = Figure(figsize=(4.2 * cols, 3.2 * rows), dpi=110)
+    axes = fig.subplots(rows, cols, squeeze=False)
+    for ax in axes.flat[len(effects):]:
+        ax.axis("off")
+    for ax, e in zip(axes.flat, effects, strict=False):
+        scale, unit = factor_unit(e.factor)
+        bins = [b for b in e.bins if b.n]
+        x = [0.5 * (b.low + b.high) * scale for b in bins]
+        y = [b.rate for b in bins]
+        err = [[max(0.0, b.rate - b.ci_low) for b in bins],
+               [max(0.0, b.ci_high - b.rate) for b in bins]]
+        ax.errorbar(x, y, yerr=err, fmt="o-", capsize=3, color="tab:blue")
+        if math.isfinite(e.x50):
+            ax.axvline(e.x50 * scale, color="tab:red", ls=":",
+                       label=f"x50 {e.x50 * scale:.3g} {unit}")
+        if e.factor == "pose_lateral_m" and capture_m is not None:
+            ax.axvline(capture_m * scale, color="k", ls="--",
+                       label=f"clearance/2 + chamfer {capture_m * scale:.3g} {unit}")
+        r = "" if not math.isfinite(e.correlation) else f" (r = {e.correlation:+.2f})"
+        ax.set_title(f"{e.factor}{r}", fontsize=9)
+        ax.set_xlabel(f"{e.factor} [{unit}]" if unit else e.factor, fontsize=8)
+        ax.set_ylabel("success rate", fontsize=8)
+        ax.set_ylim(-0.05, 1.05)
+        ax.grid(alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, loc="best")
+    fig.suptitle(f"step {step.step}: {step.successes}/{step.n} succeeded "
+                 f"({100 * step.rate:.1f} %, 95 % CI {100 * step.ci_low:.1f}-"
+                 f"{100 * step.ci_high:.1f} %)",
+                 fontsize=10)
     return _save(fig, path)

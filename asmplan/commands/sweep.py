@@ -25,9 +25,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..fileio import atomic_write_bytes, atomic_write_json
+from ..fileio import atomic_write_json
 from ..knowledge.errors import InputIssue, ProductError
 from ..knowledge.loader import load_product
+from ..report.plots import factor_unit
+from ..report.sweep import write_sweep_report
 
 
 def _positive_int(text: str) -> int:
@@ -138,61 +140,6 @@ def _capture_m(product: Any, plan: Any, k: int) -> float | None:
     return min(out) if out else None
 
 
-_UNITS = {"pose_lateral_m": (1e3, "mm"), "pose_angular_rad": (180.0 / math.pi, "deg")}
-
-
-def _unit(factor: str) -> tuple[float, str]:
-    if factor.startswith("clearance["):
-        return 1e3, "mm"
-    return _UNITS.get(factor, (1.0, ""))
-
-
-def plot_step(step: Any, capture_m: float | None) -> bytes:
-    """PNG bytes: success rate (Wilson 95 % bars) per bin of every varied factor of a step."""
-    import io
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    effects = [e for e in step.effects if e.bins]
-    n = max(1, len(effects))
-    cols = min(3, n)
-    rows = math.ceil(n / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows), squeeze=False)
-    for ax in axes.flat[len(effects):]:
-        ax.axis("off")
-    for ax, e in zip(axes.flat, effects, strict=False):
-        scale, unit = _unit(e.factor)
-        bins = [b for b in e.bins if b.n]
-        x = [0.5 * (b.low + b.high) * scale for b in bins]
-        y = [b.rate for b in bins]
-        err = [[max(0.0, b.rate - b.ci_low) for b in bins], [max(0.0, b.ci_high - b.rate) for b in bins]]
-        ax.errorbar(x, y, yerr=err, fmt="o-", capsize=3, color="tab:blue")
-        if math.isfinite(e.x50):
-            ax.axvline(e.x50 * scale, color="tab:red", ls=":", label=f"x50 {e.x50 * scale:.3g} {unit}")
-        if e.factor == "pose_lateral_m" and capture_m is not None:
-            ax.axvline(capture_m * scale, color="k", ls="--",
-                       label=f"clearance/2 + chamfer {capture_m * scale:.3g} {unit}")
-        r = "" if not math.isfinite(e.correlation) else f" (r = {e.correlation:+.2f})"
-        ax.set_title(f"{e.factor}{r}", fontsize=9)
-        ax.set_xlabel(f"{e.factor} [{unit}]" if unit else e.factor, fontsize=8)
-        ax.set_ylabel("success rate", fontsize=8)
-        ax.set_ylim(-0.05, 1.05)
-        ax.grid(alpha=0.3)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=7, loc="best")
-    fig.suptitle(f"step {step.step}: {step.successes}/{step.n} succeeded "
-                 f"({100 * step.rate:.1f} %, 95 % CI {100 * step.ci_low:.1f}-{100 * step.ci_high:.1f} %)",
-                 fontsize=10)
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, metadata={"Software": None})
-    plt.close(fig)
-    return buf.getvalue()
-
-
 def run(args: argparse.Namespace) -> int:
     from ..sim import sweep as sw
     from ..sim.fidelity import preset
@@ -281,8 +228,8 @@ def run(args: argparse.Namespace) -> int:
         "format": "asmplan-sweep", "version": 1, "product": product.name,
         "spec": spec.to_dict(), "fidelity": fidelity.name, "fingerprint": header["fingerprint"],
         "capture_m": captures, "summary": summary.to_dict(), "samples": table})
-    for st in summary.steps:
-        atomic_write_bytes(out / f"sweep-{st.step}.png", plot_step(st, captures.get(st.step)))
+    write_sweep_report(out, product, summary, spec.to_dict(), fidelity.name, captures,
+                       n_samples=len(samples))
 
     print(f"{product.name}: {len(samples)} samples x {len(ps.steps)} steps at fidelity "
           f"{fidelity.name}, varying {', '.join(spec.vary) or 'nothing'} "
@@ -292,12 +239,13 @@ def run(args: argparse.Namespace) -> int:
               f"(95 % CI {100 * st.ci_low:.1f}-{100 * st.ci_high:.1f} %)")
         if st.driver is not None:
             e = next(e for e in st.effects if e.factor == st.driver)
-            scale, unit = _unit(e.factor)
+            scale, unit = factor_unit(e.factor)
             x50 = "" if not math.isfinite(e.x50) else f", 50 % at {e.x50 * scale:.3g} {unit}"
             print(f"  driven by {e.factor} (r = {e.correlation:+.2f}, p = {e.p_value:.2g}{x50})")
         for reason, count in st.failure_reasons[:5]:
             print(f"  {count:>5} x {reason}")
-    print(f"results in {out}/ (sweep.json, sweep-<step>.png; journal {sw.JOURNAL_NAME})")
+    print(f"results in {out}/ (sweep.json, sweep-report.html, sweep-<step>.png; journal "
+          f"{sw.JOURNAL_NAME})")
     if summary.n_errors:
         print(f"asmplan sweep: {summary.n_errors} of {len(samples)} samples produced no "
               "verdict (left out of the rates):", file=sys.stderr)

@@ -593,6 +593,8 @@ def test_the_sweep_command_writes_results_resumes_and_refuses_another_sweep(
     st = data["summary"]["steps"][0]
     assert st["step"] == "peg" and st["n"] == 2
     assert (out / "sweep-peg.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    html = (out / "sweep-report.html").read_text()
+    assert 'src="sweep-peg.png"' in html and f"{st['successes']} of 2 succeeded" in html
     assert f"step peg: success {st['successes']}/2" in first.out
     # the same command again: everything comes from the journal, same numbers
     assert main(argv) == 0
