@@ -16,7 +16,7 @@ from .knowledge.errors import ProductError
 
 # subcommand name -> module in asmplan.commands defining `register(subparsers)`; the parser
 # each registers carries `func(args) -> int` as its default.
-COMMANDS = ("run", "validate", "graph", "check", "sequence", "plan", "simulate", "sweep")
+COMMANDS = ("run", "validate", "graph", "check", "sequence", "plan", "simulate", "sweep", "bench")
 
 
 def build_parser() -> argparse.ArgumentParser:

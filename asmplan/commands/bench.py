@@ -1,0 +1,133 @@
+"""``asmplan bench [--quick] [--out FILE] [--sections ...]``: measure accuracy, cost and scaling.
+
+Full run (default): every section (accuracy at every preset, motion planning vs direct OMPL,
+scaling on generated products, scene culling, sweep throughput); prints the tables and writes
+``docs/benchmarks.md`` and ``docs/benchmarks.png`` (the accuracy-vs-cost plot beside it).
+``--quick`` (CI): the accuracy scenarios at FAST and BALANCED only, and nothing is written
+unless ``--out`` is given.
+
+Exit codes: 0 every asserted accuracy figure is within its bound, 1 a figure regressed
+(``REGRESSION: <figure> = <value> exceeds bound <bound>`` on stderr), 2 bad usage.
+Time is never asserted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from .. import bench as b
+from ..fileio import atomic_write_bytes, atomic_write_text
+
+
+def _sections(text: str) -> tuple[str, ...]:
+    items = tuple(s.strip() for s in text.split(",") if s.strip())
+    bad = [s for s in items if s not in b.SECTIONS]
+    if bad or not items:
+        raise argparse.ArgumentTypeError(
+            f"expected a comma-separated subset of {','.join(b.SECTIONS)}, found \"{text}\"")
+    return items
+
+
+def _presets(text: str) -> tuple[str, ...]:
+    from ..sim.fidelity import PRESETS
+
+    items = tuple(s.strip().lower() for s in text.split(",") if s.strip())
+    bad = [s for s in items if s not in PRESETS]
+    if bad or not items:
+        raise argparse.ArgumentTypeError(
+            f"expected a comma-separated subset of {','.join(PRESETS)}, found \"{text}\"")
+    return items
+
+
+def _sizes(text: str) -> tuple[int, ...]:
+    try:
+        items = tuple(int(s) for s in text.split(",") if s.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected comma-separated integers, found "{text}"') from None
+    if not items or min(items) < 2:
+        raise argparse.ArgumentTypeError(f'expected part counts >= 2, found "{text}"')
+    return items
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "bench", help="benchmark accuracy vs cost, planning, scaling, culling and sweeps",
+        description="Measure the physics presets' accuracy against analytic values and a converged "
+                    "reference (asserted against documented bounds), and report planning time, "
+                    "scaling, scene culling and sweep throughput (never asserted).")
+    p.add_argument("--quick", action="store_true",
+                   help="CI mode: accuracy at fast and balanced only; writes nothing without --out")
+    p.add_argument("--out", type=Path, default=None,
+                   help="Markdown file to write (default docs/benchmarks.md in a full run); the plot "
+                        "goes beside it as .png")
+    p.add_argument("--sections", type=_sections, default=None,
+                   help=f"comma-separated subset of {','.join(b.SECTIONS)} (default: all; quick: accuracy)")
+    p.add_argument("--presets", type=_presets, default=None,
+                   help="presets of the accuracy section (default: all; quick: fast,balanced)")
+    p.add_argument("--sizes", type=_sizes, default=b.SCALING_SIZES,
+                   help="part counts of the scaling section (default: %(default)s)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    sections = args.sections or (("accuracy",) if args.quick else b.SECTIONS)
+    presets = args.presets or (("fast", "balanced") if args.quick else ("fast", "balanced", "accurate"))
+    out = args.out if args.out is not None else (None if args.quick else Path("docs/benchmarks.md"))
+    t_start = time.perf_counter()
+    argv = ["asmplan", "bench"] + (["--quick"] if args.quick else [])
+    rep = b.BenchReport(quick=args.quick, machine=b.machine_description(),
+                        started=time.strftime("%Y-%m-%d %H:%M %Z"), command=" ".join(argv))
+
+    def log(line: str) -> None:
+        print(f"  [{time.perf_counter() - t_start:6.1f} s] {line}", file=sys.stderr, flush=True)
+
+    def show(title: str, text: str) -> None:
+        print(f"\n## {title}\n\n{text}", flush=True)
+
+    if "accuracy" in sections:
+        log(f"accuracy: presets {', '.join(presets)} and the reference runs")
+        rep.accuracy = b.run_accuracy(presets, check_convergence=not args.quick, log=log)
+        rep.regressions = b.check_bounds(rep.accuracy.figures)
+        show("Accuracy vs cost", b.format_accuracy_summary(rep.accuracy) + "\n"
+             + b.format_accuracy(rep.accuracy))
+    if "planning" in sections:
+        log("planning: bundled examples vs direct OMPL insertion")
+        rep.planning = b.run_planning()
+        show("Motion planning per step", b.format_planning(rep.planning))
+    kept = None
+    if "scaling" in sections:
+        log(f"scaling: generated products of {', '.join(map(str, args.sizes))} parts")
+        rep.scaling, kept = b.run_scaling(args.sizes, log=log)
+        show("Scaling", b.format_scaling(rep.scaling))
+    if "culling" in sections:
+        log(f"culling: the {b.CULLING_SIZE}-part product, culled vs whole scene")
+        try:
+            rep.culling = b.run_culling(kept)
+        except Exception as exc:  # reported in the table, like a scaling failure
+            rep.culling = b.CullingResult(b.CULLING_SIZE, 0, float("nan"), float("nan"), False,
+                                          failure=f"{type(exc).__name__}: {exc}")
+        show("Scene culling", b.format_culling(rep.culling))
+    if "sweep" in sections:
+        log("sweep throughput: 1 and 2 local workers, Dask")
+        rep.sweep = b.run_sweep_throughput()
+        show("Sweep throughput", b.format_sweep(rep.sweep))
+    rep.wall_s = time.perf_counter() - t_start
+    if out is not None:
+        plot = None
+        if rep.accuracy is not None:
+            plot = out.with_suffix(".png")
+            atomic_write_bytes(plot, b.accuracy_plot_png(rep.accuracy))
+        atomic_write_text(out, b.format_markdown(rep, plot.name if plot else None))
+        log(f"wrote {out}" + (f" and {plot}" if plot else ""))
+    for r in rep.regressions:
+        print(str(r), file=sys.stderr)
+    if rep.regressions:
+        print(f"asmplan bench: {len(rep.regressions)} accuracy figure(s) beyond their bound",
+              file=sys.stderr)
+        return 1
+    n = 0 if rep.accuracy is None else sum(1 for f in rep.accuracy.figures if f.asserted)
+    log(f"done in {rep.wall_s:.0f} s; {n} accuracy figures within their bounds")
+    return 0
