@@ -350,7 +350,7 @@ def _scenario_name(c: float) -> str:
 
 
 def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
-                 clearances_m: Sequence[float] = INSERTION_CLEARANCES_M, *,
+                 clearances_m: Sequence[float] | None = None, *,
                  check_convergence: bool = False,
                  log: Callable[[str], None] | None = None) -> AccuracyResult:
     """Run the accuracy scenarios at every preset (see the module docstring).
@@ -358,7 +358,8 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
     Parameters
     ----------
     presets : preset names.
-    clearances_m : radial clearances c of the insertion scenarios (each as +c and -c), m.
+    clearances_m : radial clearances c of the insertion scenarios (each as +c and -c), m
+        (default :data:`INSERTION_CLEARANCES_M`).
     check_convergence : also run the reference at twice its time step and report the largest
         depth difference (``convergence_m``).
     log : called with one line per finished run (progress).
@@ -366,7 +367,8 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
     from .sim.fidelity import preset
 
     say = log or (lambda _s: None)
-    cases = [s * c for c in clearances_m for s in (1.0, -1.0)]
+    cases = [s * c for c in (INSERTION_CLEARANCES_M if clearances_m is None else clearances_m)
+             for s in (1.0, -1.0)]
     ref_fid = reference_fidelity()
     reference = tuple(pin_insertion(ref_fid, c) for c in cases)
     say(f"reference ({ref_fid.name}): {sum(r.wall_s for r in reference):.1f} s")

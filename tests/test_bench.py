@@ -1,0 +1,85 @@
+"""`asmplan bench`: the accuracy figures are measured, checked against their bounds, and a
+figure beyond its bound fails the command (exit 1, "REGRESSION: ..." on stderr)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+
+from asmplan import bench as b
+from asmplan.cli import main
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def fast_accuracy() -> b.AccuracyResult:
+    """FAST against the reference, one clearance (0.2 mm radial: resolvable at FAST)."""
+    return b.run_accuracy(("fast",), (0.2e-3,))
+
+
+def test_every_bound_has_a_reason_and_covers_every_preset() -> None:
+    keys = {(x.figure, x.preset) for x in b.BOUNDS}
+    assert len(keys) == len(b.BOUNDS)  # one bound per figure and preset
+    for fig in ("seed_force_mae_N", "slip_threshold_error", "insertion_outcome_mismatch",
+                "insertion_depth_error_m", "fit_penetration_m"):
+        for p in ("fast", "balanced", "accurate"):
+            assert (fig, p) in keys
+    assert all(len(x.reason) > 20 and x.limit >= 0 for x in b.BOUNDS)
+    # the paper's 0.03 N is the loosest the clamp-force bound may be
+    assert all(x.limit <= b.PAPER_MAE_N for x in b.BOUNDS if x.figure == "seed_force_mae_N")
+
+
+def test_fast_figures_are_within_their_bounds(fast_accuracy) -> None:
+    figs = {(f.scenario, f.figure): f for f in fast_accuracy.figures}
+    assert b.check_bounds(fast_accuracy.figures) == []
+    assert all(f.asserted for f in fast_accuracy.figures)  # 0.2 mm is above FAST's resolution
+    # analytic expectations, independent of the bounds table
+    assert figs[("seed clamp cycle (4 s)", "seed_force_mae_N")].value <= b.PAPER_MAE_N
+    slip = next(f for f in fast_accuracy.figures if f.figure == "slip_threshold_error")
+    assert abs(slip.value) <= 0.10
+    fit, interference = fast_accuracy.reference
+    assert fit.success and not interference.success
+    assert fit.entered_depth_m == pytest.approx(b.HOLE_DEPTH_M - 0.2e-3, abs=20e-6)  # 0.2 mm gap
+    assert interference.entered_depth_m < 2e-3
+    assert all(f.wall_s > 0 for f in fast_accuracy.figures)
+
+
+def test_a_tightened_bound_is_reported_as_a_regression(fast_accuracy) -> None:
+    mae = next(f for f in fast_accuracy.figures if f.figure == "seed_force_mae_N")
+    tight = [dataclasses.replace(x, limit=mae.value / 2) if (x.figure, x.preset) == (mae.figure, "fast")
+             else x for x in b.BOUNDS]
+    regs = b.check_bounds(fast_accuracy.figures, tight)
+    assert [r.figure for r in regs] == [mae]
+    assert str(regs[0]).startswith("REGRESSION: seed_force_mae_N [fast, seed clamp cycle (4 s)] = ")
+    assert "exceeds bound" in str(regs[0])
+
+
+def test_nan_fails_and_figures_below_resolution_are_not_checked() -> None:
+    nan = b.AccuracyFigure("fast", "s", "fit_penetration_m", math.nan, "m", 0.1)
+    assert len(b.check_bounds([nan])) == 1
+    wild = b.AccuracyFigure("fast", "s", "fit_penetration_m", 1.0, "m", 0.1, asserted=False)
+    assert b.check_bounds([wild]) == []
+
+
+def test_quick_bench_fails_loudly_on_a_regression(tmp_path, monkeypatch, capsys) -> None:
+    monkeypatch.setattr(b, "INSERTION_CLEARANCES_M", (0.2e-3,))
+    tight = tuple(dataclasses.replace(x, limit=0.0) if x.figure == "fit_penetration_m" else x
+                  for x in b.BOUNDS)
+    monkeypatch.setattr(b, "BOUNDS", tight)
+    out = tmp_path / "bench.md"
+    code = main(["bench", "--quick", "--presets", "fast", "--out", str(out)])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert "REGRESSION: fit_penetration_m [fast, pin fit 0.200 mm radial]" in captured.err
+    assert "| fast | seed clamp cycle (4 s) |" in captured.out
+    text = out.read_text()
+    assert "## Accuracy vs cost per preset" in text and "## Machine" in text
+    assert "REGRESSION: fit_penetration_m" in text
+    assert out.with_suffix(".png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_bad_sections_are_bad_usage() -> None:
+    assert main(["bench", "--sections", "accuracy,nonsense"]) == 2
