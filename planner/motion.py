@@ -165,8 +165,10 @@ def part_data(product: Product, settings: PlannerSettings, geometry: Any | None 
     for k, part in enumerate(product.parts):
         mesh = geo.mesh(part.name)
         mp = geo.mass_properties(part.name)
-        model = geo.collision_model(part.name, settings.collision_level)
-        coarse = geo.collision_model(part.name, "coarse")
+        # the planner uses the pieces only: measuring their error (~0.1-1 s per part) is left
+        # to the commands that show it
+        model = geo.collision_model(part.name, settings.collision_level, measured=False)
+        coarse = geo.collision_model(part.name, "coarse", measured=False)
         surface = GraspSurface.from_mesh(mesh, mp.com_m, settings.surface_samples,
                                          settings.seed + 7919 * k, part.geometry.kind)
         out[part.name] = PartData(part.name, model, coarse, surface, float(mp.mass_kg),

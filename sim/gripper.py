@@ -334,3 +334,81 @@ class Gripper:
                 for link in FINGER_LINKS
             ]
         )
+
+
+class CoupledGripper(Gripper):
+    """A :class:`~asmplan.sim.gripper.Gripper` whose fingers are coupled like a synchronised
+    parallel gripper, and which opens to the grasp's opening rather than its full stroke.
+
+    Coupling: in force mode each finger gets the commanded squeeze force plus a correction
+    ``-/+ c`` with ``c = (k (q1 - q2) + d (v1 - v2)) / 2``, so the pair is centred on the TCP
+    by a stiffness ``2 k`` and damping ``2 d`` along the closing axis while the squeeze (their
+    mean) is unchanged; at rest ``q1 = q2`` and each finger presses exactly the commanded
+    force. ``k = m w^2`` and ``d = 2 zeta m w`` for the carried mass ``m`` (part + fingers),
+    ``w = min(coupling_omega_radps, 0.25 / dt)`` and ``zeta = 0.7``: an acceleration ``a``
+    along the closing axis offsets the part by ``a / (2 w^2)`` (0.16 mm at 2 m/s^2 with the
+    default 80 rad/s) and the offset vanishes at rest. The correction is explicit (computed
+    from the state before the step); stiffer settings (w >= 150 rad/s) fed energy into stiff
+    pin-in-hole contacts and jammed a 25 g peg that inserts at 60-100 rad/s.
+
+    Parameters
+    ----------
+    world, spec, T_world_tcp, opening_m
+        As for :class:`~asmplan.sim.gripper.Gripper`; ``opening_m`` is also the opening of
+        every open phase (approach, retreat), as planned.
+    carried_mass_kg : float
+        Mass of the part to be carried, kg.
+    coupling_omega_radps : float
+        Natural frequency of the coupling, rad/s.
+    """
+
+    def __init__(
+        self,
+        world: BulletWorld,
+        spec: GripperSpec,
+        T_world_tcp: np.ndarray,
+        opening_m: float | None = None,
+        carried_mass_kg: float = 0.0,
+        coupling_omega_radps: float = 80.0,
+    ) -> None:
+        self._open_default = opening_m
+        super().__init__(world, spec, T_world_tcp, opening_m)
+        m = float(carried_mass_kg) + 2.0 * spec.finger_mass_kg
+        w = min(float(coupling_omega_radps), 0.25 / world.fidelity.dt_s)
+        self.coupling_stiffness_Npm = m * w * w
+        self.coupling_damping_Nspm = 2.0 * 0.7 * m * w
+
+    def command_open(self, opening_m: float | None = None) -> None:
+        """Open mode at ``opening_m`` (default: the opening given at construction)."""
+        super().command_open(self._open_default if opening_m is None else opening_m)
+
+    def command_clamp_force(self, force_N: float) -> None:
+        """Force mode as in the base class, with the finger coupling added once touching.
+
+        (PyBullet adds the joint forces of repeated TORQUE_CONTROL calls within one step,
+        so the whole command is issued here in one call.)
+        """
+        if not (math.isfinite(force_N) and 0.0 <= force_N <= self.spec.max_clamp_force_N):
+            raise ValueError(
+                f"clamp force: expected within [0, {self.spec.max_clamp_force_N}] N, found {force_N}"
+            )
+        v = self.spec.closing_speed_mps
+        if v is not None and not self._touching:
+            self._touching = all(
+                self.world.contacts(self.body, link_a=link).count > 0 for link in FINGER_LINKS
+            )
+        if v is None or self._touching:
+            if self._mode != "force" or not self._torque:
+                self.world.disable_motors(self.body, FINGER_LINKS)
+                self._torque = True
+            q = self.finger_travel_m()
+            qd = self.world.joint_velocities(self.body, FINGER_LINKS)
+            c = 0.5 * (self.coupling_stiffness_Npm * (q[0] - q[1])
+                       + self.coupling_damping_Nspm * (qd[0] - qd[1]))
+            self.world.set_joint_forces(self.body, FINGER_LINKS, (force_N - c, force_N + c))
+        else:
+            self.world.set_joint_velocity_targets(
+                self.body, FINGER_LINKS, (v, v), (force_N, force_N)
+            )
+            self._torque = False
+        self._mode = "force"
