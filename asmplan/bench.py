@@ -491,6 +491,7 @@ class CullingResult:
     identical: bool
     differences: tuple[str, ...] = ()
     failure: str = ""
+    product: str = ""
 
     @property
     def ratio(self) -> float:
@@ -559,18 +560,26 @@ def scaling_growth(rows: Sequence[ScalingRow]) -> dict[str, list[tuple[int, int,
 
 
 def run_culling(result: Any | None, n_parts: int = CULLING_SIZE, seed: int = 0,
-                fidelity: str = "balanced") -> CullingResult:
+                fidelity: str = "balanced", example: str | None = None) -> CullingResult:
     """Simulate the plan of ``result`` (a RunResult of the generated ``n_parts`` product; made
-    here when None) culled and with the whole product loaded; compare times and outcomes."""
+    here when None; or of the bundled ``example`` when given) culled and with the whole
+    product loaded; compare times and outcomes."""
     from .knowledge.generator import generated_product
+    from .knowledge.loader import load_product
     from .pipeline import RunSettings, run_product
+    from .planner.bench_motion import _example_path
     from .sim.simulate import simulate_plan
 
-    if result is None:
+    if example is not None:
+        result = run_product(load_product(_example_path(example)),
+                             RunSettings(fidelity=fidelity, simulate=False))
+    elif result is None:
         result = run_product(generated_product(n_parts, seed), RunSettings(fidelity=fidelity, simulate=False))
+    name = example or f"generated, {n_parts} parts"
+    n_parts = len(result.product.parts)
     if result.plan is None:
         return CullingResult(n_parts, 0, float("nan"), float("nan"), False,
-                             failure=result.failure or "no plan")
+                             failure=result.failure or "no plan", product=name)
     fid = result.fidelity
     t0 = time.perf_counter()
     culled = simulate_plan(result.plan, result.product, result.geometry, fid, cull=True)
@@ -583,7 +592,7 @@ def run_culling(result: Any | None, n_parts: int = CULLING_SIZE, seed: int = 0,
             diffs.append(f"step {a.index} ({a.part}): culled {a.success} {list(a.failed_criteria)}, "
                          f"whole {b.success} {list(b.failed_criteria)}")
     n = sum(1 for s in culled.steps if s.simulated)
-    return CullingResult(n_parts, n, t1 - t0, t2 - t1, not diffs, tuple(diffs))
+    return CullingResult(n_parts, n, t1 - t0, t2 - t1, not diffs, tuple(diffs), product=name)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -789,18 +798,21 @@ def format_scaling(rows: Sequence[ScalingRow]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def format_culling(c: CullingResult) -> str:
+def format_culling(results: Sequence[CullingResult]) -> str:
     """Markdown: culled vs whole-product simulation time and whether outcomes agree."""
-    if c.failure:
-        return f"Not measured on the {c.n_parts}-part product: {c.failure.splitlines()[0][:200]}\n"
-    lines = ["| product | simulated steps | culled (s) | whole product (s) | ratio whole / culled "
+    lines = ["| product | parts | simulated steps | culled (s) | whole product (s) | ratio whole / culled "
              "| identical outcomes |",
-             "| --- | ---: | ---: | ---: | ---: | --- |",
-             f"| generated, {c.n_parts} parts | {c.steps} | {c.culled_s:.2f} | {c.whole_s:.2f} | "
-             f"{c.ratio:.2f} | "
-             f"{'yes' if c.identical else 'NO'} |"]
-    lines += [f"\n- {d}" for d in c.differences]
-    return "\n".join(lines) + "\n"
+             "| --- | ---: | ---: | ---: | ---: | ---: | --- |"]
+    notes = []
+    for c in results:
+        if c.failure:
+            lines.append(f"| {c.product} | {c.n_parts} | - | - | - | - | not measured: no plan |")
+            notes.append(f"- {c.product}: {c.failure.splitlines()[0][:200]}")
+            continue
+        lines.append(f"| {c.product} | {c.n_parts} | {c.steps} | {c.culled_s:.2f} | {c.whole_s:.2f} | "
+                     f"{c.ratio:.2f} | {'yes' if c.identical else 'NO'} |")
+        notes += [f"- {c.product}: {d}" for d in c.differences]
+    return "\n".join(lines) + "\n" + ("\n" + "\n".join(notes) + "\n" if notes else "")
 
 
 def format_sweep(s: SweepResult) -> str:
@@ -864,7 +876,7 @@ class BenchReport:
     accuracy: AccuracyResult | None = None
     planning: PlanningResult | None = None
     scaling: list[ScalingRow] | None = None
-    culling: CullingResult | None = None
+    culling: list[CullingResult] | None = None
     sweep: SweepResult | None = None
     regressions: list[Regression] = field(default_factory=list)
     started: str = ""
@@ -911,9 +923,9 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
                 format_scaling(rep.scaling)]
     if rep.culling is not None:
         out += ["## Scene culling", "",
-                f"The plan of the generated {rep.culling.n_parts}-part product simulated with each "
-                "step's scene holding only the bodies it needs (`simulate_plan(cull=True)`) and with "
-                "every part loaded "
+                f"The plan of the generated {CULLING_SIZE}-part product (or, while that does not plan, "
+                "of the largest bundled example) simulated with each step's scene holding only the "
+                "bodies it needs (`simulate_plan(cull=True)`) and with every part loaded "
                 "(`cull=False`); outcomes compared step by step (success and failed criteria).", "",
                 format_culling(rep.culling)]
     if rep.sweep is not None:
