@@ -10,7 +10,8 @@ plate before cover" is a precedence that only the geometry reveals (like the cov
 gear_unit example). Each box carries holes along one axis only (top face, or one side face).
 
 Lengths in the returned document are millimetres (``units: {length: mm, mass: g}``); parts
-start on trays in rows in front of the base (-y). The first cell is always a 2-block stack
+start on trays in rows in front of the base (-y), ``TRAY_PITCH_MM`` apart, on a table sized to
+hold them all. The first cell is always a 2-block stack
 with a side plate and an L-cover (so 5 parts already show two insertion axes and a cover);
 further cells are drawn from ``numpy.random.default_rng(seed)``.
 """
@@ -32,10 +33,11 @@ PITCH_MM = 100.0
 BASE_T_MM = 15.0
 BLOCK_MM = (40.0, 40.0, 20.0)
 PIN_D_MM, PIN_L_MM, PIN_X_MM = 6.0, 6.0, 12.0
-SIDE_T_MM, SIDE_W_MM, SIDE_H_MM = 6.0, 30.0, 16.0
+SIDE_T_MM, SIDE_W_MM, SIDE_H_MM = 6.0, 60.0, 20.0
 SIDE_PIN_D_MM = 5.0
 COVER_T_MM = 5.0
 FLANGE_T_MM, FLANGE_GAP_MM, FLANGE_DROP_MM = 5.0, 4.0, 19.0
+TRAY_PITCH_MM = 100.0
 
 
 def _cells(n_parts: int, rng: np.random.Generator) -> list[dict[str, Any]]:
@@ -99,8 +101,8 @@ def generate_product(n_parts: int, seed: int) -> dict[str, Any]:
         k = tray_slot[0]
         tray_slot[0] += 1
         per_row = max(cols * 2, 6)
-        x = -size_x / 2 + 35.0 + 60.0 * (k % per_row)
-        y = -size_y / 2 - 120.0 - 80.0 * (k // per_row)
+        x = -size_x / 2 + 50.0 + TRAY_PITCH_MM * (k % per_row)
+        y = -size_y / 2 - 120.0 - TRAY_PITCH_MM * (k // per_row)
         return {"location": "tray", "xyz": [_r(x), _r(y), _r(height_mm / 2)]}
 
     for ci, cell in enumerate(cells):
@@ -201,6 +203,11 @@ def generate_product(n_parts: int, seed: int) -> dict[str, Any]:
                               "start": start(drop)})
             rules.append({"before": top_name, "after": name,
                           "reason": "the block is screwed down before the cover hides the screws"})
+    # the table (centred on the product frame) covers the base and every tray slot
+    starts = np.array([p["start"]["xyz"][:2] for p in parts if "start" in p] or [[0.0, 0.0]])
+    reach = np.maximum(np.abs(starts).max(axis=0) + TRAY_PITCH_MM, [size_x / 2, size_y / 2])
+    table_x = max(2.0 * reach[0] + 200.0, 800.0)
+    table_y = max(2.0 * reach[1] + 200.0, 600.0)
     doc: dict[str, Any] = {
         "asmplan": 1,
         "product": f"generated_{n_parts}_s{seed}",
@@ -212,8 +219,7 @@ def generate_product(n_parts: int, seed: int) -> dict[str, Any]:
         "resources": {
             "gripper": {"stroke": 85.0, "finger": {"size": [20.0, 8.0, 30.0], "friction": 1.0},
                         "max_force": 60.0, "mass": 600.0},
-            "table": {"size": [_r(max(size_x + 400.0, 800.0)), _r(max(size_y + 800.0, 600.0)), 40.0],
-                      "friction": 0.5},
+            "table": {"size": [_r(table_x), _r(table_y), 40.0], "friction": 0.5},
             "fixtures": [{"name": "vise", "holds": "base"}],
         },
     }

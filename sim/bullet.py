@@ -767,13 +767,18 @@ class BulletWorld:
             body, list(linear_mps), list(angular_radps), physicsClientId=self.client_id
         )
 
-    def kinetic_energy_J(self, body: int) -> float:
-        """Kinetic energy of a rigid (part) body from its base velocity, J."""
+    def kinetic_energy_J(self, body: int, velocity: tuple[np.ndarray, np.ndarray] | None = None,
+                         T_world_body: np.ndarray | None = None) -> float:
+        """Kinetic energy of a rigid (part) body from its base velocity, J.
+
+        ``velocity`` ((3,) m/s, (3,) rad/s) and ``T_world_body`` (4, 4) may be passed when
+        already read after the last step (saves two queries).
+        """
         info = self._bodies[body]
         if info.static:
             return 0.0
-        v, w = self.velocity(body)
-        R = self.pose(body)[:3, :3]
+        v, w = self.velocity(body) if velocity is None else velocity
+        R = (self.pose(body) if T_world_body is None else T_world_body)[:3, :3]
         inertia_world = R @ info.inertia_kgm2 @ R.T
         return float(0.5 * info.mass_kg * v @ v + 0.5 * w @ inertia_world @ w)
 
@@ -803,21 +808,17 @@ class BulletWorld:
             e3 = np.zeros((0, 3))
             ei = np.zeros(0, dtype=int)
             return Contacts(ei, ei, ei, e3, e3, e3, e, e, e3)
-        arr_b = np.array([c[2] for c in pts], dtype=int)
-        la = np.array([c[3] for c in pts], dtype=int)
-        lb = np.array([c[4] for c in pts], dtype=int)
-        pa = np.array([c[5] for c in pts], dtype=float)
-        pb = np.array([c[6] for c in pts], dtype=float)
-        nb = np.array([c[7] for c in pts], dtype=float)
-        dist = np.array([c[8] for c in pts], dtype=float)
-        fn = np.array([c[9] for c in pts], dtype=float)
-        fric = np.array(
-            [
-                np.multiply(c[10], c[11]) + np.multiply(c[12], c[13])  # type: ignore[arg-type]
-                for c in pts
-            ],
-            dtype=float,
-        )
+        cols = list(zip(*pts, strict=True))
+        arr_b = np.array(cols[2], dtype=int)
+        la = np.array(cols[3], dtype=int)
+        lb = np.array(cols[4], dtype=int)
+        pa = np.array(cols[5], dtype=float)
+        pb = np.array(cols[6], dtype=float)
+        nb = np.array(cols[7], dtype=float)
+        dist = np.array(cols[8], dtype=float)
+        fn = np.array(cols[9], dtype=float)
+        fric = (np.array(cols[10], dtype=float)[:, None] * np.array(cols[11], dtype=float)
+                + np.array(cols[12], dtype=float)[:, None] * np.array(cols[13], dtype=float))
         # PyBullet reports friction as the force on the contact manifold's body 0. Measured
         # rule (tests/sim/test_bullet.py): when exactly one of the two colliders is a compound
         # shape, the compound is body 0; otherwise the collider created first is (lower body
@@ -834,6 +835,20 @@ class BulletWorld:
         a_is_body0 = np.where(comp_a != comp_b, comp_a, created_first)
         fric = np.where(a_is_body0[:, None], fric, -fric)
         return Contacts(arr_b, la, lb, pa, pb, nb, dist, fn, fric)
+
+    def contact_count(self, body_a: int, link_a: int | None = None) -> int:
+        """Number of contact points of body A (optionally of one link) after the last step;
+        cheaper than :meth:`contacts` when only their presence matters."""
+        if link_a is None:
+            return len(pybullet.getContactPoints(bodyA=body_a, physicsClientId=self.client_id))
+        return len(pybullet.getContactPoints(bodyA=body_a, linkIndexA=link_a,
+                                             physicsClientId=self.client_id))
+
+    def max_penetration_m(self, body_a: int) -> float:
+        """Deepest penetration among body A's contact points after the last step, m (0 when
+        none penetrates); cheaper than ``contacts(body_a).max_penetration_m()``."""
+        pts = pybullet.getContactPoints(bodyA=body_a, physicsClientId=self.client_id)
+        return max(0.0, -min(c[8] for c in pts)) if pts else 0.0
 
     # ---------------------------------------------------------------- joints
     def disable_motors(self, body: int, joints: Sequence[int]) -> None:
@@ -914,6 +929,13 @@ class BulletWorld:
         """Joint positions (m or rad), (len(joints),)."""
         st = pybullet.getJointStates(body, list(joints), physicsClientId=self.client_id)
         return np.array([s[0] for s in st], dtype=float)
+
+    def joint_positions_velocities(self, body: int, joints: Sequence[int]
+                                   ) -> tuple[np.ndarray, np.ndarray]:
+        """Joint positions and velocities in one query, each (len(joints),)."""
+        st = pybullet.getJointStates(body, list(joints), physicsClientId=self.client_id)
+        return (np.array([s[0] for s in st], dtype=float),
+                np.array([s[1] for s in st], dtype=float))
 
     def joint_velocities(self, body: int, joints: Sequence[int]) -> np.ndarray:
         """Joint velocities (m/s or rad/s), (len(joints),)."""

@@ -286,7 +286,7 @@ class Gripper:
         if v is not None and not self._touching:
             # Closing: speed-limited, force-limited velocity control until both pads touch.
             self._touching = all(
-                self.world.contacts(self.body, link_a=link).count > 0 for link in FINGER_LINKS
+                self.world.contact_count(self.body, link_a=link) > 0 for link in FINGER_LINKS
             )
         if v is None or self._touching:
             if self._mode != "force" or not self._torque:
@@ -395,14 +395,13 @@ class CoupledGripper(Gripper):
         v = self.spec.closing_speed_mps
         if v is not None and not self._touching:
             self._touching = all(
-                self.world.contacts(self.body, link_a=link).count > 0 for link in FINGER_LINKS
+                self.world.contact_count(self.body, link_a=link) > 0 for link in FINGER_LINKS
             )
         if v is None or self._touching:
             if self._mode != "force" or not self._torque:
                 self.world.disable_motors(self.body, FINGER_LINKS)
                 self._torque = True
-            q = self.finger_travel_m()
-            qd = self.world.joint_velocities(self.body, FINGER_LINKS)
+            q, qd = self.world.joint_positions_velocities(self.body, FINGER_LINKS)
             c = 0.5 * (self.coupling_stiffness_Npm * (q[0] - q[1])
                        + self.coupling_damping_Nspm * (qd[0] - qd[1]))
             self.world.set_joint_forces(self.body, FINGER_LINKS, (force_N - c, force_N + c))

@@ -323,10 +323,12 @@ def swept_boxes(step: Step, part_points: np.ndarray, gripper_points: np.ndarray)
     t = step.trajectory.t_s
     T_part = held_part_poses(step, t)
     T_grip = step.trajectory.T_world_gripper
-    pts_part = np.einsum("nij,kj->nki", T_part[:, :3, :3], part_points) + T_part[:, None, :3, 3]
-    pts_grip = np.einsum("nij,kj->nki", T_grip[:, :3, :3], gripper_points) + T_grip[:, None, :3, 3]
-    pts = np.concatenate([pts_part, pts_grip], axis=1)
-    lo, hi = pts.min(axis=1), pts.max(axis=1)
+    lo_hi = []
+    for T, points in ((T_part, part_points), (T_grip, gripper_points)):
+        pts = np.matmul(T[:, :3, :3], np.ascontiguousarray(points.T))  # (n, 3, k)
+        lo_hi.append((pts.min(axis=2) + T[:, :3, 3], pts.max(axis=2) + T[:, :3, 3]))
+    lo = np.minimum(lo_hi[0][0], lo_hi[1][0])
+    hi = np.maximum(lo_hi[0][1], lo_hi[1][1])
     return np.stack([np.minimum(lo[:-1], lo[1:]), np.maximum(hi[:-1], hi[1:])], axis=1)
 
 
@@ -618,7 +620,8 @@ def select_scene(plan: Plan, index: int, product: Product, geometry: Any, fideli
     g = product.resources.gripper
     open_half = 0.5 * max(step.grasp.open_width_m, step.grasp.width_m)
     grip_pts = np.concatenate([piece_corners(pc) for pc in gripper_model(g, open_half).pieces])
-    held_pts = np.asarray(geometry.mesh(held).vertices, float)
+    # the hull's vertices bound the same boxes as all the mesh's vertices, with fewer points
+    held_pts = np.asarray(geometry.mesh(held).convex_hull.vertices, float)
     sweep = swept_boxes(step, held_pts, grip_pts)
     obstacles: list[SceneBody] = []
     left_out: list[tuple[str, str]] = []
