@@ -36,8 +36,15 @@ Roles
     piece that protrudes below the face, so the part rests flat until clamped.
 
 Fixtured parts are static (mass 0: the fixture holds them); the fixture itself is not
-modelled as a body. Everything else is left out (``cull=False`` keeps every part as an
-obstacle instead, for comparison).
+modelled as a body. Everything else is left out.
+
+Whole product (``cull=False``, the baseline culling is measured against): every part of the
+product is in the scene as the simulator would model it without selecting anything: parts
+already placed at their assembled poses as DYNAMIC bodies resting on each other (pins in
+holes), parts not yet placed at their start poses as DYNAMIC bodies on the table or on their
+own tray nest, fixtured parts static; all with their features (the fidelity's level, raised
+from "coarse" to "convex" like the required bodies). The parts the step needs keep the roles
+above; the others get the role ``obstacle`` (dynamic unless fixtured) and nests ``nest``.
 
 Levels of detail
 ----------------
@@ -516,7 +523,8 @@ def select_scene(plan: Plan, index: int, product: Product, geometry: Any, fideli
         Its ``geometry_lod`` sets the level of detail.
     settings : SceneSettings, optional
     cull : bool
-        False keeps every part (others as static obstacles at the detailed level).
+        False loads the whole product (see the module docstring: the other parts dynamic
+        unless fixtured, with their features, unplaced ones on their nests).
 
     Returns
     -------
@@ -635,12 +643,32 @@ def select_scene(plan: Plan, index: int, product: Product, geometry: Any, fideli
             left_out.append((other, f"{where}, {d * 1e3:.1f} mm from the space the part and "
                                     f"gripper sweep (> {s.include_margin_m * 1e3:.0f} mm)"))
             continue
-        near = d <= s.near_margin_m or not cull
+        if not cull:
+            # the naive whole product: every part as the simulator would model it if it
+            # selected nothing (dynamic unless fixtured, with its features, on a nest when
+            # waiting at a start pose it cannot rest on the table at)
+            fixt = product.is_fixtured(other)
+            model, note = physics_model(geometry, other, level, True)
+            reason = (f"obstacle {where}, {d * 1e3:.1f} mm from the swept space (whole "
+                      f"product loaded: cull off), {'static: fixtured' if fixt else 'dynamic'}; "
+                      f"level {model.level}" + (f": {note}" if note else ""))
+            kw = ({"friction": float(product.part(other).friction)} if fixt
+                  else _mass_body(geometry, product, other))
+            obstacles.append(SceneBody(other, "obstacle", not fixt, model.level, poses[other],
+                                       model.pieces, reason, distance_m=d, **kw))
+            other_nest = (None if fixt or other in placed else
+                          tray_nest(geometry, other, poses[other], model.pieces, s))
+            if other_nest is not None:
+                pieces, T_nest, desc = other_nest
+                obstacles.append(SceneBody(f"nest:{other}", "nest", False, "box", T_nest, pieces,
+                                           f"{desc}, static (whole product loaded)",
+                                           friction=float(table.friction)))
+            continue
+        near = d <= s.near_margin_m
         want: LevelOfDetail = level if near else "coarse"
         model, note = physics_model(geometry, other, want, False)
         reason = (f"obstacle {where}, {d * 1e3:.1f} mm from the swept space "
-                  + ("(whole scene kept: cull off)" if not cull else
-                     f"({'<=' if near else '>'} {s.near_margin_m * 1e3:.0f} mm)")
+                  + f"({'<=' if near else '>'} {s.near_margin_m * 1e3:.0f} mm)"
                   + f", static; level {model.level}" + (f": {note}" if note else ""))
         obstacles.append(SceneBody(other, "obstacle", False, model.level, poses[other],
                                    model.pieces, reason, friction=float(product.part(other).friction),

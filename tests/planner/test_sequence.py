@@ -199,7 +199,10 @@ def test_beam_reaches_the_exhaustive_optimum_when_wide() -> None:
     assert exact.method == "exhaustive"
     narrow = plan_sequence(product, settings=SequenceSettings(max_states=1, beam_width=2),
                            table=table)
-    wide = plan_sequence(product, settings=SequenceSettings(max_states=1, beam_width=exact.states),
+    # wide enough to keep every (state, last part) bucket with its top-3 labels at any depth
+    width = exact.states * len(product.part_names) * 3
+    wide = plan_sequence(product, settings=SequenceSettings(max_states=1, beam_width=width,
+                                                            max_beam_width=width),
                          table=table)
     assert narrow.method == wide.method == "beam"
     assert narrow.best.cost_s >= exact.best.cost_s - 1e-9

@@ -145,7 +145,10 @@ def test_culled_scene_holds_only_the_required_bodies():
     whole = select_scene(plan, step.index, product, geo, BALANCED, cull=False)
     assert set(whole.parts) == set(product.part_names) and not whole.left_out
     assert {b.name for b in whole.bodies if b.role == "obstacle"} == others
-    assert not any(b.dynamic for b in whole.bodies if b.role == "obstacle")
+    # the whole product as loaded naively: every other part dynamic unless fixtured
+    assert all(b.dynamic != product.is_fixtured(b.name)
+               for b in whole.bodies if b.role == "obstacle")
+    assert any(b.dynamic for b in whole.bodies if b.role == "obstacle")
 
 
 def test_partners_are_dynamic_and_rest_on_static_supports():
