@@ -40,7 +40,8 @@ def test_examples_check_clean_at_the_convex_level(examples, name):
     assert result.success, result.reason
     for m in result.mates:
         assert abs(m.measured_m - m.built_m) <= m.bound_m
-        assert m.bound_m < 2e-6  # the convex pieces resolve these fits to better than 2 um
+        # the piece count follows the clearance to resolve: within 2 um, or 5 % of a loose fit
+        assert m.bound_m < max(2e-6, 0.05 * m.built_m)
 
 
 def test_interfering_product_names_the_pair_and_depth():

@@ -55,8 +55,8 @@ def test_stepped_shaft_takes_each_fit_and_chamfers_its_ends(examples):
     shape = part_shape(product.part("shaft"), fitted_sizes(product))
     (body,) = shape.bodies
     got = [(round(s.z0_m * 1e3, 6), round(s.z1_m * 1e3, 6), round(2e6 * s.radius_m, 3)) for s in body.sections]
-    # hub h6 (0..-9 um), plain, front g6 (-5..-14 um), tail f7 (-13..-28 um) at 10 mm
-    assert got == [(-40, -30, 9995.5), (-30, -10, 10000.0), (-10, 30, 9990.5), (30, 40, 9979.5)]
+    # hub h6 (0..-9 um), plain, front g6 (-5..-14 um), tail c11 (-80..-170 um) at 10 mm
+    assert got == [(-40, -30, 9995.5), (-30, -10, 10000.0), (-10, 30, 9990.5), (30, 40, 9875.0)]
     assert body.chamfer_low_m == pytest.approx(0.5e-3)
     assert body.chamfer_high_m == pytest.approx(0.5e-3)
 

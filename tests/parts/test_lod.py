@@ -166,7 +166,8 @@ def test_convex_pieces_have_the_volume_of_the_same_polygon_cut(sx, sy, sz, fx, f
     pieces, _ = convex_pieces(shape, sides, SETTINGS)
     v_pieces = sum(piece_volume_m3(pc) for pc in pieces)
     cut = body_solid(body, TOL) - hole_solid(hole, TOL, n_sides=sides["h"].n_sides)
-    assert v_pieces == pytest.approx(cut.volume(), rel=1e-9, abs=1e-15)
+    # relative 1e-7 (~0.01 mm^3 here): a nanometre chamfer leaves slivers above 1e-9
+    assert v_pieces == pytest.approx(cut.volume(), rel=1e-7, abs=1e-15)
 
 
 @settings(max_examples=15, deadline=None)
