@@ -189,9 +189,9 @@ class GripInfeasibleError(PlanningError):
             f"{where}: grip infeasible: needs {self.required_N:.2f} N per finger "
             f"(= {self.safety_factor:g} x {self.mass_kg:.4f} kg x (9.81 + "
             f"{self.acceleration_m_s2:g}) m/s^2 / (2 x mu {self.mu:.3f})"
-            + (f" x (1 + 4 x lever {self.lever_m * 1e3:.1f} mm / pad {self.pad_width_m * 1e3:.0f} mm)"
-               if self.lever_m > 0 else "")
-            + (f" + {self.safety_factor:g} x resistance {self.resistance_N:g} N / (2 mu)"
+            + (f", combined with the moment of a {self.lever_m * 1e3:.1f} mm lever on "
+               f"{self.pad_width_m * 1e3:.0f} mm pads" if self.lever_m > 0 else "")
+            + (f", plus an insertion resistance of {self.resistance_N:g} N"
                if self.resistance_N > 0 else "")
             + f") but the {limit_source} is {self.limit_N:.2f} N", step, part)
 

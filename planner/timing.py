@@ -123,20 +123,23 @@ def clamp_force(product: Product, part: str, mass_kg: float,
                 pad_width_m: float | None = None) -> ClampForce:
     """Per-finger clamp force to carry ``part`` (mass ``mass_kg``) with the product's gripper.
 
-    ``F = sf [(m g (1 + 4 d_g / W) + m a (1 + 4 d / W)) / (2 mu) + R / (2 mu)]`` with
-    ``sf`` the safety factor, ``mu = finger_friction * part friction`` (PyBullet multiplies),
-    ``a`` the part's acceleration limit unless given, ``d`` (``lever_m``) the distance of the
-    centre of mass from the fingers' closing axis, ``d_g`` (``gravity_lever_m``, default
-    ``d``) its horizontal part (gravity only makes a moment with that), ``W`` (``pad_width_m``,
-    default the finger width) the length of the pad contact and ``R`` the product's
-    ``insertion_resistance_N`` (default 0). With a centred grasp and ``R = 0`` this is the
-    classic ``sf m (g + a) / (2 mu)``.
+    ``F = sf sqrt(F_t^2 + F_m^2)`` with ``F_t = (m (g + a) + R) / (2 mu)`` the force that
+    keeps the part from sliding and ``F_m = 2 m (g d_g + a d) / (mu W)`` the force that keeps
+    it from turning about the closing axis. ``sf`` is the safety factor,
+    ``mu = finger_friction * part friction`` (PyBullet multiplies), ``a`` the part's
+    acceleration limit unless given, ``d`` (``lever_m``) the distance of the centre of mass from
+    the fingers' closing axis, ``d_g`` (``gravity_lever_m``, default ``d``) its horizontal part
+    (gravity only makes a moment with that), ``W`` (``pad_width_m``, default the finger width)
+    the length of the pad contact and ``R`` the product's ``insertion_resistance_N``
+    (default 0). With a centred grasp and ``R = 0`` this is the classic ``sf m (g+a) / (2 mu)``.
 
-    The moment terms: a load f at lever d makes a moment f d about the closing axis, which the
-    pads resist by friction; a line contact of length W under a normal force F resists at most
-    mu F W / 4 per pad, so the moment alone needs F = 2 f d / (mu W). Adding the slip and twist
-    utilisations is the conservative linear interaction. Raises :class:`GripInfeasibleError`
-    when ``F`` exceeds the gripper's ``max_force_N`` or the part's ``max_clamp_force_N``.
+    The moment term: a load f at lever d makes a moment f d about the closing axis; a line
+    contact of length W under a normal force F resists at most mu F W / 4 per pad (uniform
+    pressure). Force and moment share the same friction; their combination uses the
+    ellipsoidal limit-surface approximation of a frictional contact (Goyal, Ruina and
+    Papadopoulos 1991; Xydas and Kao 1999), ``(f / f_max)^2 + (m / m_max)^2 <= 1``. Raises
+    :class:`GripInfeasibleError` when ``F`` exceeds the gripper's ``max_force_N`` or the part's
+    ``max_clamp_force_N``.
     """
     if not (math.isfinite(mass_kg) and mass_kg > 0):
         raise ValueError(f"mass_kg: expected > 0, found {mass_kg}")
@@ -156,9 +159,9 @@ def clamp_force(product: Product, part: str, mass_kg: float,
     translational = mass_kg * (G_M_S2 + a) / (2.0 * mu)
     d = max(float(lever_m), 0.0)
     d_g = d if gravity_lever_m is None else min(max(float(gravity_lever_m), 0.0), d)
-    required = sf * ((mass_kg * G_M_S2 * (1.0 + 4.0 * d_g / width)
-                      + mass_kg * a * (1.0 + 4.0 * d / width)) / (2.0 * mu)
-                     + resistance / (2.0 * mu))
+    slide = (mass_kg * (G_M_S2 + a) + resistance) / (2.0 * mu)
+    turn = 2.0 * mass_kg * (G_M_S2 * d_g + a * d) / (mu * width)
+    required = sf * math.hypot(slide, turn)
     if required > limit:
         raise GripInfeasibleError(part, required, limit, source, mass_kg, mu, a, sf, step,
                                   lever_m=lever_m, pad_width_m=width, resistance_N=resistance)

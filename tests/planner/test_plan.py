@@ -48,9 +48,9 @@ def test_clamp_force_in_the_plan_follows_the_physics(peg_plan, examples):
     # a steel cylinder 10 mm x 40 mm (the pin is part of it): 7850 kg/m^3 within 1 %
     assert mass == pytest.approx(7850 * np.pi * 0.005**2 * 0.04, rel=0.01)
     mu = product.resources.gripper.finger_friction * product.part("peg").friction
-    # sf [(m g (1 + 4 d_g / W) + m a (1 + 4 d / W)) / (2 mu) + R / (2 mu)]: d the distance of the
-    # centre of mass from the closing axis, d_g its horizontal part, W the finger width, R the
-    # declared insertion resistance (none here)
+    # sf sqrt(F_t^2 + F_m^2): F_t = (m (g + a) + R) / (2 mu), F_m = 2 m (g d_g + a d) / (mu W), d the
+    # distance of the centre of mass from the closing axis, d_g its horizontal part, W the finger
+    # width, R the declared insertion resistance (none here)
     W = float(product.resources.gripper.finger_size_m[0])
     T = step.grasp.T_part_gripper
     o, y = T[:3, 3], T[:3, 1]
@@ -59,9 +59,9 @@ def test_clamp_force_in_the_plan_follows_the_physics(peg_plan, examples):
     d_g = float(np.linalg.norm(perp[:2]))  # the peg stands upright at the start and at the end
     assert step.clamp.lever_m == pytest.approx(d, abs=1e-4)  # (chamfers move the centre a bit)
     d = step.clamp.lever_m
-    expected = product.process.safety_factor * (
-        mass * (9.81 * (1 + 4 * d_g / W) + 2.0 * (1 + 4 * d / W)) / (2 * mu)
-        + product.process.insertion_resistance_N / (2 * mu))
+    slide = (mass * (9.81 + 2.0) + product.process.insertion_resistance_N) / (2 * mu)
+    turn = 2 * mass * (9.81 * d_g + 2.0 * d) / (mu * W)
+    expected = product.process.safety_factor * float(np.hypot(slide, turn))
     assert step.clamp.commanded_N == pytest.approx(expected, rel=1e-3)
     assert step.clamp.slip_limit_N == pytest.approx(mass * (9.81 + 2.0) / (2 * mu), rel=1e-9)
     held = [p.name for p in step.trajectory.phases if p.name not in ("approach", "retreat")]

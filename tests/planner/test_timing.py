@@ -127,24 +127,26 @@ def test_trajectory_phases_limits_and_forces(examples):
 
 
 def test_clamp_force_adds_the_moment_of_an_off_centre_grasp_and_the_insertion_resistance(examples):
-    """F = sf [(m g (1 + 4 d_g / W) + m a (1 + 4 d / W)) / (2 mu) + R / (2 mu)]: a line contact
-    of length W resists at most mu F W / 4 per pad about the closing axis (uniform pressure)."""
+    """F = sf sqrt(F_t^2 + F_m^2), F_t = (m (g + a) + R) / (2 mu), F_m = 2 m (g d_g + a d) / (mu W):
+    a line contact of length W resists at most mu F W / 4 per pad about the closing axis
+    (uniform pressure); force and moment combine on an ellipsoidal limit surface."""
     import dataclasses
+    import math
 
     from asmplan.planner.timing import clamp_force
 
     product = examples["pinhole_station"]  # finger width 20 mm, mu = 1.0 x 0.45 for POM
     product = dataclasses.replace(product, process=dataclasses.replace(
         product.process, insertion_resistance_N=1.0))
-    m, a, mu, sf, W, R = 0.1, 2.0, 0.45, 2.0, 0.020, 1.0
+    m, a, mu, sf, W, R, d = 0.1, 2.0, 0.45, 2.0, 0.020, 1.0, 0.010
     centred = clamp_force(product, "part3", m)
-    off = clamp_force(product, "part3", m, lever_m=0.010)
-    below = clamp_force(product, "part3", m, lever_m=0.010, gravity_lever_m=0.0)
-    base = m * (9.81 + a) / (2 * mu)
-    assert centred.slip_limit_N == pytest.approx(base, rel=1e-9)
-    assert centred.required_N == pytest.approx(sf * (base + R / (2 * mu)), rel=1e-9)
-    assert off.required_N == pytest.approx(sf * (base * (1 + 4 * 0.010 / W) + R / (2 * mu)), rel=1e-9)
+    off = clamp_force(product, "part3", m, lever_m=d)
+    below = clamp_force(product, "part3", m, lever_m=d, gravity_lever_m=0.0)
+    slide = (m * (9.81 + a) + R) / (2 * mu)
+    assert centred.slip_limit_N == pytest.approx(m * (9.81 + a) / (2 * mu), rel=1e-9)
+    assert centred.required_N == pytest.approx(sf * slide, rel=1e-9)
+    assert off.required_N == pytest.approx(sf * math.hypot(slide, 2 * m * (9.81 + a) * d / (mu * W)), rel=1e-9)
     # centre of mass straight below the fingers: gravity makes no moment, acceleration does
-    assert below.required_N == pytest.approx(
-        sf * ((m * 9.81 + m * a * (1 + 4 * 0.010 / W)) / (2 * mu) + R / (2 * mu)), rel=1e-9)
+    assert below.required_N == pytest.approx(sf * math.hypot(slide, 2 * m * a * d / (mu * W)), rel=1e-9)
+    assert centred.required_N < below.required_N < off.required_N
     assert off.slip_limit_N == centred.slip_limit_N  # the classic limit is still reported
