@@ -431,6 +431,10 @@ class _Builder:
                 ok = False
                 self.err((*path, "holes", i, "chamfer"), f"expected a chamfer smaller than the "
                          f"radius {h.diameter_m / 2 * 1e3:g} mm, found {h.chamfer_m * 1e3:g} mm")
+            elif not h.through and h.chamfer_m >= h.depth_m:
+                ok = False
+                self.err((*path, "holes", i, "chamfer"), f"expected a chamfer shallower than the "
+                         f"hole's depth {h.depth_m * 1e3:g} mm, found {h.chamfer_m * 1e3:g} mm")
         for i, p in enumerate(pins):
             if p.chamfer_m * 2 >= p.diameter_m:
                 ok = False

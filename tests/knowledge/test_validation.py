@@ -144,6 +144,8 @@ CASES = [
      r'expected true or false, found text "yes please"'),
     ("chamfer-too-big", edit("chamfer: 0.5}", "chamfer: 5}"), "5}", r"parts\[0\]\.geometry\.holes\[0\]\.chamfer",
      r"expected a chamfer smaller than the radius 5 mm, found 5 mm"),
+    ("chamfer-deeper-than-hole", edit("depth: 20, chamfer: 0.5}", "depth: 0.4, chamfer: 0.5}"), "0.5}",
+     r"parts\[0\]\.geometry\.holes\[0\]\.chamfer", r"expected a chamfer shallower than the hole's depth 0\.4 mm, found 0\.5 mm"),
     ("empty-parts", edit(BASE[BASE.index("  - name: block"):BASE.index("mates:")], "  []\n"), None, "parts",
      r"expected at least 1 entries, found 0"),
     ("clearance-min-gt-max", edit("fit: H7/g6", "clearance: {min: 0.05, max: 0.01}"), "{min: 0.05",

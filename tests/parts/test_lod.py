@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from asmplan.knowledge.frames import frame_from_axis, make_T
@@ -160,6 +160,8 @@ def _box_with_hole(size, centre_xy, radius, depth, chamfer, through, n):
 def test_convex_pieces_have_the_volume_of_the_same_polygon_cut(sx, sy, sz, fx, fy, fr, fd, through, fc, c):
     # invariant: the pieces tile the block minus the hole's polygon prism and chamfer exactly
     radius = fr * min(sx, sy) / 2
+    # a chamfer deeper than a blind hole is invalid input (the loader refuses it)
+    assume(through or fc * radius < 0.9 * fd * sz)
     x, y = fx * (sx / 2 - 1.5 * radius), fy * (sy / 2 - 1.5 * radius)
     shape, body, hole = _box_with_hole((sx, sy, sz), (x, y), radius, fd * sz, fc * radius, through, 0)
     sides = hole_sides(shape, {"h": c}, SETTINGS)
