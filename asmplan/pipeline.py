@@ -122,9 +122,8 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
         result.results = simulate_plan(
             result.plan, product, geometry, fidelity, cull=settings.cull,
             progress=lambda i, n, part, status: status == "done" and tick("simulate", i + 1, n, part))
-        for step in result.results.steps:
-            if step.kind != "fixture":
-                result.warnings.extend(f"step {step.index} ({step.part}): {w}" for w in step.warnings)
+        # each step's own warnings stay with the step (results.json, the report's step section);
+        # the run-level list holds the plan's notes and the fits the preset cannot resolve
     result.timings_s["simulate"] = time.perf_counter() - t2
     result.warnings = list(dict.fromkeys(result.warnings))  # once each, in order
     return result
