@@ -85,7 +85,8 @@ class Progress:
         self.stream.flush()
 
 
-def _evidence_lines(evidence: dict[str, Any]) -> list[str]:
+def evidence_lines(evidence: dict[str, Any]) -> list[str]:
+    """Printable lines of a planning failure's evidence (contacts, reasons, alternatives, path)."""
     lines = []
     for p in evidence.get("pairs") or []:
         depth = "" if p.get("depth_m") is None else f" depth {p['depth_m'] * 1e3:.3f} mm"
@@ -155,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
         if progress.tty:
             sys.stderr.write("\n")
         print(f"asmplan plan: planning failed: {exc}", file=sys.stderr)
-        for line in _evidence_lines(exc.evidence()):
+        for line in evidence_lines(exc.evidence()):
             print(line, file=sys.stderr)
         return 1
     result.plan.write(args.output)

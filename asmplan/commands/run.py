@@ -18,7 +18,7 @@ from typing import TextIO
 from ..knowledge.loader import load_product
 from ..pipeline import RunResult, RunSettings, run_product, write_outputs
 from ..planner.plan import PlannerSettings
-from .plan import _evidence_lines
+from .plan import evidence_lines
 
 
 def bundled_example(name: str = "pinhole_station") -> Path:
@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     times = ", ".join(f"{k} {v:.1f} s" for k, v in t.items())
     if result.failure:
         print(f"{product.name}: no plan: {result.failure}", file=out)
-        for line in _evidence_lines(result.failure_evidence):
+        for line in evidence_lines(result.failure_evidence):
             print(line, file=out)
     elif result.results is not None and not result.results.success:
         failed = ", ".join(f"{s.index} ({s.part})" for s in result.results.failed_steps)
