@@ -292,13 +292,18 @@ class Gripper:
             if self._mode != "force" or not self._torque:
                 self.world.disable_motors(self.body, FINGER_LINKS)
                 self._torque = True
-            self.world.set_joint_forces(self.body, FINGER_LINKS, (force_N, force_N))
+            # one call per step: PyBullet adds repeated TORQUE_CONTROL forces within a step
+            self.world.set_joint_forces(self.body, FINGER_LINKS, self._finger_forces(force_N))
         else:
             self.world.set_joint_velocity_targets(
                 self.body, FINGER_LINKS, (v, v), (force_N, force_N)
             )
             self._torque = False
         self._mode = "force"
+
+    def _finger_forces(self, force_N: float) -> tuple[float, float]:
+        """Joint forces of the two fingers in force mode (both ``force_N`` here)."""
+        return (force_N, force_N)
 
     def command_open(self, opening_m: float | None = None) -> None:
         """Open mode: position-control both fingers to ``opening_m`` (default fully open)."""
@@ -382,32 +387,9 @@ class CoupledGripper(Gripper):
         """Open mode at ``opening_m`` (default: the opening given at construction)."""
         super().command_open(self._open_default if opening_m is None else opening_m)
 
-    def command_clamp_force(self, force_N: float) -> None:
-        """Force mode as in the base class, with the finger coupling added once touching.
-
-        (PyBullet adds the joint forces of repeated TORQUE_CONTROL calls within one step,
-        so the whole command is issued here in one call.)
-        """
-        if not (math.isfinite(force_N) and 0.0 <= force_N <= self.spec.max_clamp_force_N):
-            raise ValueError(
-                f"clamp force: expected within [0, {self.spec.max_clamp_force_N}] N, found {force_N}"
-            )
-        v = self.spec.closing_speed_mps
-        if v is not None and not self._touching:
-            self._touching = all(
-                self.world.contact_count(self.body, link_a=link) > 0 for link in FINGER_LINKS
-            )
-        if v is None or self._touching:
-            if self._mode != "force" or not self._torque:
-                self.world.disable_motors(self.body, FINGER_LINKS)
-                self._torque = True
-            q, qd = self.world.joint_positions_velocities(self.body, FINGER_LINKS)
-            c = 0.5 * (self.coupling_stiffness_Npm * (q[0] - q[1])
-                       + self.coupling_damping_Nspm * (qd[0] - qd[1]))
-            self.world.set_joint_forces(self.body, FINGER_LINKS, (force_N - c, force_N + c))
-        else:
-            self.world.set_joint_velocity_targets(
-                self.body, FINGER_LINKS, (v, v), (force_N, force_N)
-            )
-            self._torque = False
-        self._mode = "force"
+    def _finger_forces(self, force_N: float) -> tuple[float, float]:
+        """Force mode as in the base class, with the finger coupling added once touching."""
+        q, qd = self.world.joint_positions_velocities(self.body, FINGER_LINKS)
+        c = 0.5 * (self.coupling_stiffness_Npm * (q[0] - q[1])
+                   + self.coupling_damping_Nspm * (qd[0] - qd[1]))
+        return (force_N - c, force_N + c)
