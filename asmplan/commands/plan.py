@@ -16,26 +16,7 @@ from ..knowledge.loader import load_product
 from ..planner.errors import PlanningError
 from ..planner.ompl_backend import PLANNERS
 from ..planner.plan import Plan, PlannerSettings
-
-
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected a number, found "{text}"') from None
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"expected a positive number, found {text}")
-    return v
-
-
-def _seed(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected an integer seed, found "{text}"') from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"expected a seed >= 0, found {v}")
-    return v
+from .argtypes import nonnegative_int, positive_float
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -52,10 +33,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="plan file to write (default plan.json; replaced atomically)")
     p.add_argument("--sequence", metavar="A,B,...",
                    help="part order to plan (default: the sequence planner's best)")
-    p.add_argument("--seed", type=_seed, default=d.seed, help=f"random seed (default {d.seed})")
+    p.add_argument("--seed", type=nonnegative_int, default=d.seed, help=f"random seed (default {d.seed})")
     p.add_argument("--planner", choices=sorted(PLANNERS), default=d.planner,
                    help=f"OMPL planner (default {d.planner})")
-    p.add_argument("--time-budget", type=_positive_float, default=d.time_budget_s,
+    p.add_argument("--time-budget", type=positive_float, default=d.time_budget_s,
                    metavar="SECONDS",
                    help=f"OMPL search budget per query (default {d.time_budget_s:g} s)")
     p.add_argument("--level", choices=("convex", "exact"), default=d.collision_level,

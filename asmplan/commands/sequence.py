@@ -16,6 +16,7 @@ from ..planner.sequence import (
     SequenceSettings,
     plan_sequence,
 )
+from .argtypes import positive_int
 
 # cost term -> SequenceSettings field holding its weight
 WEIGHT_FIELDS = {"reorientations": "reorientation_s", "direction_changes": "direction_change_s",
@@ -37,16 +38,6 @@ def _weight(text: str) -> tuple[str, float]:
     return name, v
 
 
-def _positive(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected a positive integer, found "{text}"') from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, found {v}")
-    return v
-
-
 def register(sub: argparse._SubParsersAction) -> None:
     defaults = SequenceSettings()
     p = sub.add_parser(
@@ -56,15 +47,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "cell time and explain every precedence. Exit code 2 when a rule contradicts "
                     "the geometry, 1 when no order exists.")
     p.add_argument("product", help="product YAML file")
-    p.add_argument("--top", type=_positive, default=defaults.top_k, metavar="K",
+    p.add_argument("--top", type=positive_int, default=defaults.top_k, metavar="K",
                    help=f"number of ranked sequences (default {defaults.top_k})")
     p.add_argument("--json", action="store_true",
                    help="print every sequence with its cost breakdown and the reason for every "
                         "precedence edge as JSON")
-    p.add_argument("--beam-width", type=_positive, default=defaults.beam_width, metavar="W",
+    p.add_argument("--beam-width", type=positive_int, default=defaults.beam_width, metavar="W",
                    help=f"beam width for products too large to enumerate (default "
                         f"{defaults.beam_width})")
-    p.add_argument("--max-states", type=_positive, default=defaults.max_states, metavar="N",
+    p.add_argument("--max-states", type=positive_int, default=defaults.max_states, metavar="N",
                    help=f"enumerate every assembly state up to this many (default "
                         f"{defaults.max_states})")
     p.add_argument("--weight", type=_weight, action="append", default=[], metavar="TERM=SECONDS",

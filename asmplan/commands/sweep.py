@@ -30,36 +30,7 @@ from ..knowledge.errors import InputIssue, ProductError
 from ..knowledge.loader import load_product
 from ..report.plots import factor_unit
 from ..report.sweep import write_sweep_report
-
-
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected an integer, found "{text}"') from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, found {v}")
-    return v
-
-
-def _nonneg_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected an integer, found "{text}"') from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, found {v}")
-    return v
-
-
-def _nonneg_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected a number, found "{text}"') from None
-    if not (math.isfinite(v) and v >= 0):
-        raise argparse.ArgumentTypeError(f"expected a number >= 0, found {text}")
-    return v
+from .argtypes import nonnegative_float, nonnegative_int, positive_int
 
 
 def _vary(text: str) -> tuple[str, ...]:
@@ -87,11 +58,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "or on a Dask cluster with --scheduler. Re-running the same command "
                     "resumes from the journal in OUTDIR.")
     p.add_argument("product", help="product YAML file")
-    p.add_argument("--samples", type=_positive_int, required=True, metavar="N",
+    p.add_argument("--samples", type=positive_int, required=True, metavar="N",
                    help="number of samples")
     p.add_argument("--vary", type=_vary, default=FACTORS, metavar="F,...",
                    help=f"factors to vary, among {','.join(FACTORS)} (default all)")
-    p.add_argument("--seed", type=_nonneg_int, default=0, help="sampling seed (default 0)")
+    p.add_argument("--seed", type=nonnegative_int, default=0, help="sampling seed (default 0)")
     p.add_argument("-o", "--out", default="sweep", metavar="OUTDIR",
                    help="output folder (default sweep/); holds the journal for resuming")
     p.add_argument("--plan", metavar="PLAN_JSON",
@@ -101,22 +72,22 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--clearance-dist", choices=("uniform", "truncnormal"),
                    default=d.clearance_distribution,
                    help=f"clearance distribution in each fit range (default {d.clearance_distribution})")
-    p.add_argument("--friction-sigma", type=_nonneg_float, default=d.friction_rel_sigma,
+    p.add_argument("--friction-sigma", type=nonnegative_float, default=d.friction_rel_sigma,
                    metavar="REL", help=f"relative 1-sigma friction spread (default {d.friction_rel_sigma:g})")
-    p.add_argument("--pose-lateral", type=_nonneg_float, default=d.pose_lateral_m * 1e3,
+    p.add_argument("--pose-lateral", type=nonnegative_float, default=d.pose_lateral_m * 1e3,
                    metavar="MM", help="lateral robot error: sigma per axis (normal) or largest "
                                       f"magnitude (uniform), mm (default {d.pose_lateral_m * 1e3:g})")
-    p.add_argument("--pose-angular", type=_nonneg_float,
+    p.add_argument("--pose-angular", type=nonnegative_float,
                    default=math.degrees(d.pose_angular_rad), metavar="DEG",
                    help="tilt error: sigma per axis or largest magnitude, degrees (default "
                         f"{math.degrees(d.pose_angular_rad):g})")
     p.add_argument("--pose-dist", choices=("normal", "uniform"), default=d.pose_distribution,
                    help=f"pose error distribution (default {d.pose_distribution})")
-    p.add_argument("--workers", type=_positive_int, metavar="N",
+    p.add_argument("--workers", type=positive_int, metavar="N",
                    help="local worker processes (default: all cores)")
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                    help="run on this Dask scheduler instead of locally (extra asmplan[dask])")
-    p.add_argument("--retries", type=_nonneg_int, default=2,
+    p.add_argument("--retries", type=nonnegative_int, default=2,
                    help="re-runs of a sample whose worker died (default 2)")
     p.add_argument("--redo-failed", action="store_true",
                    help="on resume, run again the samples that produced no verdict")
