@@ -126,13 +126,15 @@ def _pose(position: Sequence[float]) -> np.ndarray:
     return T
 
 
-def _box_piece(size_m: Sequence[float]) -> Any:
+def box_piece(size_m: Sequence[float]) -> Any:
+    """A centred box :class:`~asmplan.parts.pieces.ConvexPiece` of full size ``size_m`` (m)."""
     from .parts.pieces import ConvexPiece
 
     return ConvexPiece(kind="box", T_part_piece=np.eye(4), half_extents_m=np.asarray(size_m) / 2)
 
 
-def _box_inertia(mass_kg: float, size_m: Sequence[float]) -> np.ndarray:
+def box_inertia(mass_kg: float, size_m: Sequence[float]) -> np.ndarray:
+    """Inertia (3, 3) of a solid box about its centre, kg m^2."""
     a, b, c = size_m
     return np.diag([b * b + c * c, a * a + c * c, a * a + b * b]) * mass_kg / 12.0
 
@@ -152,8 +154,8 @@ def _box_and_gripper(world: Any, part: BoxPart, clearance_m: float = 0.002) -> t
     world.add_ground(friction=0.5)
     T_part = np.eye(4)
     T_part[2, 3] = part.size_m[2] / 2.0
-    body = world.add_body((_box_piece(part.size_m),), part.mass_kg, T_part,
-                          inertia_kgm2=_box_inertia(part.mass_kg, part.size_m),
+    body = world.add_body((box_piece(part.size_m),), part.mass_kg, T_part,
+                          inertia_kgm2=box_inertia(part.mass_kg, part.size_m),
                           friction=part.friction, name="box")
     T_tcp = _pose((0.0, 0.0, part.size_m[2] / 2.0))
     gripper = Gripper(world, GripperSpec(), T_tcp, opening_m=part.size_m[1] + 2 * clearance_m)
@@ -177,7 +179,7 @@ def seed_cycle_outcome(fidelity: Any) -> Any:
     return outcome
 
 
-def _lift_trajectory(T_tcp: np.ndarray, force_N: float, accel_mps2: float, lift_s: float = 0.2,
+def constant_acceleration_lift(T_tcp: np.ndarray, force_N: float, accel_mps2: float, lift_s: float = 0.2,
                      decel_mps2: float = 2.0, dt_s: float = 1e-3) -> Any:
     """Clamp (0 -> F in 0.1 s), hold to 0.3 s, lift at constant ``accel`` for ``lift_s``,
     brake at ``decel`` (< g) to rest."""
@@ -209,7 +211,7 @@ def lift_slip_m(fidelity: Any, part: BoxPart, force_N: float, accel_mps2: float)
     with BulletWorld(fidelity) as world:
         body, gripper, T_tcp = _box_and_gripper(world, part)
         _, outcome = execute_step(world, gripper, body,
-                                  _lift_trajectory(T_tcp, force_N, accel_mps2))
+                                  constant_acceleration_lift(T_tcp, force_N, accel_mps2))
     return float(outcome.max_slip_m)
 
 

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
+from asmplan.bench import BoxPart, box_inertia, box_piece, constant_acceleration_lift
 from asmplan.parts.decompose import HoleSpec, block_with_holes_pieces
 from asmplan.parts.pieces import ConvexPiece
 from asmplan.planner.trajectory import (
-    PhaseSpan,
     Segment,
     Trajectory,
     read_phase_table,
@@ -41,15 +41,6 @@ def pose(position: tuple[float, float, float], R: np.ndarray = R_DOWN) -> np.nda
     return T
 
 
-def box_piece(size_m: tuple[float, float, float]) -> ConvexPiece:
-    return ConvexPiece(kind="box", T_part_piece=np.eye(4), half_extents_m=np.asarray(size_m) / 2)
-
-
-def box_inertia(mass_kg: float, size_m: tuple[float, float, float]) -> np.ndarray:
-    a, b, c = size_m
-    return np.diag([b * b + c * c, a * a + c * c, a * a + b * b]) * mass_kg / 12.0
-
-
 def cylinder_inertia(mass_kg: float, radius_m: float, length_m: float) -> np.ndarray:
     ixx = mass_kg * (3 * radius_m**2 + length_m**2) / 12.0
     return np.diag([ixx, ixx, mass_kg * radius_m**2 / 2.0])
@@ -58,13 +49,6 @@ def cylinder_inertia(mass_kg: float, radius_m: float, length_m: float) -> np.nda
 # --------------------------------------------------------------------------------------------
 # Seed clamp cycle: an 80 g box gripped across its 30 mm width
 # --------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class BoxPart:
-    size_m: tuple[float, float, float] = (0.04, 0.03, 0.05)  # x, y (gripped width), z
-    mass_kg: float = 0.08
-    friction: float = 0.6  # times the pads' 1.0: mu = 0.6, so m g / (2 mu) = 0.65 N < 1.57 N
-
-
 def add_box_and_gripper(
     world: BulletWorld, part: BoxPart, gripper_spec: GripperSpec | None = None, clearance_m: float = 0.002
 ) -> tuple[int, Gripper, np.ndarray]:
@@ -102,40 +86,6 @@ def run_seed_cycle(
 # --------------------------------------------------------------------------------------------
 # Slip threshold: lift with constant upward acceleration
 # --------------------------------------------------------------------------------------------
-def constant_acceleration_lift(
-    T_tcp: np.ndarray,
-    force_N: float,
-    accel_mps2: float,
-    lift_s: float = 0.2,
-    decel_mps2: float = 2.0,
-    dt_s: float = 1e-3,
-) -> Trajectory:
-    """Clamp (0 -> F in 0.1 s), hold 0.2 s, lift at constant ``accel`` for ``lift_s``, then
-    brake at ``decel`` (< g, so braking needs less grip) to rest.
-    """
-    t_clamp, t_hold = 0.1, 0.3
-    v_top = accel_mps2 * lift_s
-    t_lift = t_hold + lift_s
-    t_end = t_lift + v_top / decel_mps2
-    t = np.round(np.arange(0.0, t_end + 1e-12, dt_s), 12)
-    if t[-1] < t_end - 1e-12:
-        t = np.append(t, t_end)
-    tau = np.clip(t - t_hold, 0.0, lift_s)
-    z = 0.5 * accel_mps2 * tau**2
-    tb = np.clip(t - t_lift, 0.0, None)
-    z = z + v_top * tb - 0.5 * decel_mps2 * tb**2
-    T = np.repeat(T_tcp[None], t.shape[0], axis=0)
-    T[:, 2, 3] += z
-    f = np.where(t < t_clamp, force_N * t / t_clamp, force_N)
-    phases = (
-        PhaseSpan("clamp", 0.0, t_clamp),
-        PhaseSpan("hold", t_clamp, t_hold),
-        PhaseSpan("lift", t_hold, t_lift),
-        PhaseSpan("translate", t_lift, float(t[-1])),
-    )
-    return Trajectory(t_s=t, T_world_gripper=T, clamp_force_N=f, phases=phases)
-
-
 def lift_slip_m(fidelity: Fidelity, part: BoxPart, force_N: float, accel_mps2: float) -> float:
     """Largest slip of the part in the fingers while lifted with acceleration ``accel``."""
     with BulletWorld(fidelity) as world:
