@@ -61,6 +61,7 @@ Bodies are built from the :class:`~asmplan.parts.pieces.ConvexPiece` tuples of
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -70,6 +71,8 @@ from asmplan.knowledge.frames import invert
 from asmplan.knowledge.model import Gripper as GripperResource
 from asmplan.knowledge.model import Product
 from asmplan.parts.collision import CollisionWorld
+from asmplan.parts.geometry import PartShape
+from asmplan.parts.lod import convex_pieces
 from asmplan.parts.pieces import CollisionModel, ConvexPiece, LevelOfDetail
 from asmplan.planner.motion import gripper_model, table_model
 from asmplan.planner.plan import Plan, Step
@@ -110,8 +113,10 @@ class SceneSettings:
         The nest stays this far inside the supported face's outline, m.
     nest_min_height_m : float
         A largest downward face lower than this above the table rests on the table (no nest).
-    dynamic_partners : bool
-        Make non-fixtured mates and touching parts dynamic (default) or static.
+    dynamic_partners : bool or None
+        Make non-fixtured mates and touching parts dynamic or static; None (default) follows
+        ``Fidelity.dynamic_partners`` (static at FAST). In the whole-product scene
+        (``cull=False``) the placed parts follow the same choice.
     """
 
     near_margin_m: float = 5e-3
@@ -120,7 +125,7 @@ class SceneSettings:
     nest_clearance_m: float = 1e-3
     nest_inset_m: float = 0.5e-3
     nest_min_height_m: float = 10e-6
-    dynamic_partners: bool = True
+    dynamic_partners: bool | None = None
 
     def __post_init__(self) -> None:
         for name in ("near_margin_m", "include_margin_m", "touch_tolerance_m",
@@ -339,28 +344,82 @@ def swept_boxes(step: Step, part_points: np.ndarray, gripper_points: np.ndarray)
     return np.stack([np.minimum(lo[:-1], lo[1:]), np.maximum(hi[:-1], hi[1:])], axis=1)
 
 
-def physics_model(geometry: Any, part: str, level: LevelOfDetail, needs_features: bool
-                  ) -> tuple[CollisionModel, str]:
+def empty_holes(product: Product, part: str, present: frozenset[str] | set[str]) -> frozenset[str]:
+    """Hole features of ``part`` that nothing enters during a step.
+
+    ``present`` holds the parts at their assembled poses in the step (the placed ones and the
+    held one). A hole is empty when ``part`` is not present (it waits at its start pose), or
+    when every mate of the hole has its pin part absent (the pin arrives in a later step). A
+    hole no mate names is never called empty (something undeclared may pass through it).
+    """
+    mates_of: dict[str, list[str]] = {}
+    for m in product.mates:
+        if m.hole_part == part:
+            mates_of.setdefault(m.hole_feature, []).append(m.pin_part)
+    return frozenset(f for f, pins in mates_of.items()
+                     if part not in present or all(p not in present for p in pins))
+
+
+_FILLED: weakref.WeakKeyDictionary[Any, dict[tuple[str, frozenset[str]], CollisionModel]] = (
+    weakref.WeakKeyDictionary())
+
+
+def filled_model(geometry: Any, part: str, filled: frozenset[str]) -> CollisionModel | None:
+    """``part``'s convex model with the holes ``filled`` left solid (cached per geometry).
+
+    None when nothing changes (no such hole cut in the part, or a mesh-file part, whose
+    sectors come from its declared holes as a whole). The other holes keep their convex
+    decomposition; a body left without holes becomes its exact primitive.
+    """
+    shape = geometry.shape(part)
+    if shape.is_mesh or not any(h.feature in filled for h in shape.holes):
+        return None
+    cache = _FILLED.setdefault(geometry, {})
+    key = (part, filled)
+    if key not in cache:
+        kept = tuple(h for h in shape.holes if h.feature not in filled)
+        probe = PartShape(shape.part, shape.bodies, kept, shape.pins, shape.is_mesh)
+        sides = {k: v for k, v in geometry.hole_sides(part).items() if k not in filled}
+        pieces, notes = convex_pieces(probe, sides, geometry.settings)
+        done = sorted(h.feature for h in shape.holes if h.feature in filled)
+        cache[key] = CollisionModel("convex", pieces, notes=(
+            *notes, f"hole(s) {', '.join(done)} left solid: empty during this step"))
+    return cache[key]
+
+
+def physics_model(geometry: Any, part: str, level: LevelOfDetail, needs_features: bool,
+                  filled: frozenset[str] = frozenset()) -> tuple[CollisionModel, str]:
     """The collision model PyBullet can use for ``part`` at the requested ``level``.
 
-    Returns the model and a note on any change of level (see the module docstring).
+    ``filled``: holes that stay empty during the step (:func:`empty_holes`); where the level
+    keeps holes they are modelled solid, which saves their ring of pieces and the contacts
+    on it. Returns the model and a note on any change of level (see the module docstring).
     """
     note = ""
+    reduced = filled_model(geometry, part, filled) if filled else None
+    if reduced is not None:
+        note = f"{len(filled)} hole(s) that stay empty modelled solid"
     if level == "coarse" and needs_features:
         coarse = geometry.collision_model(part, "coarse", measured=False)
-        convex = geometry.collision_model(part, "convex", measured=False)
+        convex = reduced or geometry.collision_model(part, "convex", measured=False)
         if len(convex.pieces) > 1:
-            return convex, ("convex (coarse would fill its holes and bridge its pins, and it is "
-                            "in contact)")
-        return coarse, note
+            return convex, "; ".join(x for x in (
+                "convex (coarse would fill its holes and bridge its pins, and it is in contact)",
+                note) if x)
+        return coarse, ""
     if level == "exact":
         exact = geometry.collision_model(part, "exact")
         if exact.mesh_faces is not None or not exact.pieces:
-            return geometry.collision_model(part, "convex", measured=False), (
-                "convex (its exact model is a triangle mesh, which PyBullet cannot use for "
-                "every body; convex pieces keep the holes as exact polygons)")
-        return exact, note
-    return geometry.collision_model(part, level, measured=False), note
+            if reduced is not None and all(pc.kind != "hull" for pc in reduced.pieces):
+                return reduced, note + " (every hole solid: the exact primitives)"
+            return reduced or geometry.collision_model(part, "convex", measured=False), "; ".join(
+                x for x in (
+                    "convex (its exact model is a triangle mesh, which PyBullet cannot use for "
+                    "every body; convex pieces keep the holes as exact polygons)", note) if x)
+        return exact, ""
+    if level == "coarse":
+        return geometry.collision_model(part, level, measured=False), ""
+    return reduced or geometry.collision_model(part, level, measured=False), note
 
 
 # ---------------------------------------------------------------------------------------------
@@ -549,7 +608,14 @@ def select_scene(plan: Plan, index: int, product: Product, geometry: Any, fideli
                             "work table (top face z = 0), static", friction=float(table.friction)))
 
     # held part (+ nest)
-    held_model, note = physics_model(geometry, held, level, True)
+    present = frozenset(placed) | {held}
+    dynamic_partners = (fidelity.dynamic_partners if s.dynamic_partners is None
+                        else s.dynamic_partners)
+
+    def model_of(name: str, want: LevelOfDetail, needs: bool) -> tuple[CollisionModel, str]:
+        return physics_model(geometry, name, want, needs, empty_holes(product, name, present))
+
+    held_model, note = model_of(held, level, True)
     held_reason = f"held part, dynamic, at its start pose; level {held_model.level}"
     if note:
         held_reason += f": {note}"
@@ -589,14 +655,14 @@ def select_scene(plan: Plan, index: int, product: Product, geometry: Any, fideli
     partners: dict[str, SceneBody] = {}
     for other, dist in touching(held, sorted(placed)):
         fixt = product.is_fixtured(other)
-        dyn = s.dynamic_partners and not fixt
-        model, note = physics_model(geometry, other, level, True)
+        dyn = dynamic_partners and not fixt
+        model, note = model_of(other, level, True)
         role = "mate" if other in mate_partners else "touching"
         why = (f"mates with {held} ({', '.join(mate_partners[other])})" if role == "mate"
                else f"touches {held} when seated (distance {dist * 1e6:.1f} um)")
         dyn_why = ("static: fixtured" if fixt else
                    "dynamic, so the insertion pushes a real body" if dyn else
-                   "static (dynamic_partners off)")
+                   "static (dynamic partners off at this fidelity)")
         reason = f"{why}; in place; {dyn_why}; level {model.level}" + (f": {note}" if note else "")
         kw = _mass_body(geometry, product, other) if dyn else {
             "friction": float(product.part(other).friction)}
@@ -614,7 +680,7 @@ def select_scene(plan: Plan, index: int, product: Product, geometry: Any, fideli
         for other, _ in touching(name, sorted(placed - set(partners))):
             if other in supports:
                 continue
-            model, note = physics_model(geometry, other, level, True)
+            model, note = model_of(other, level, True)
             reason = (f"supports {name} (touches it), in place, static; level {model.level}"
                       + (f": {note}" if note else ""))
             if product.is_fixtured(other):
@@ -647,14 +713,18 @@ def select_scene(plan: Plan, index: int, product: Product, geometry: Any, fideli
             # the naive whole product: every part as the simulator would model it if it
             # selected nothing (dynamic unless fixtured, with its features, on a nest when
             # waiting at a start pose it cannot rest on the table at)
+            # (placed parts static when the fidelity makes partners static)
             fixt = product.is_fixtured(other)
-            model, note = physics_model(geometry, other, level, True)
+            dyn = not fixt and (dynamic_partners or other not in placed)
+            model, note = model_of(other, level, True)
+            how = ("static: fixtured" if fixt else "dynamic" if dyn
+                   else "static (dynamic partners off at this fidelity)")
             reason = (f"obstacle {where}, {d * 1e3:.1f} mm from the swept space (whole "
-                      f"product loaded: cull off), {'static: fixtured' if fixt else 'dynamic'}; "
+                      f"product loaded: cull off), {how}; "
                       f"level {model.level}" + (f": {note}" if note else ""))
-            kw = ({"friction": float(product.part(other).friction)} if fixt
-                  else _mass_body(geometry, product, other))
-            obstacles.append(SceneBody(other, "obstacle", not fixt, model.level, poses[other],
+            kw = (_mass_body(geometry, product, other) if dyn
+                  else {"friction": float(product.part(other).friction)})
+            obstacles.append(SceneBody(other, "obstacle", dyn, model.level, poses[other],
                                        model.pieces, reason, distance_m=d, **kw))
             other_nest = (None if fixt or other in placed else
                           tray_nest(geometry, other, poses[other], model.pieces, s))
@@ -666,7 +736,7 @@ def select_scene(plan: Plan, index: int, product: Product, geometry: Any, fideli
             continue
         near = d <= s.near_margin_m
         want: LevelOfDetail = level if near else "coarse"
-        model, note = physics_model(geometry, other, want, False)
+        model, note = model_of(other, want, False)
         reason = (f"obstacle {where}, {d * 1e3:.1f} mm from the swept space "
                   + f"({'<=' if near else '>'} {s.near_margin_m * 1e3:.0f} mm)"
                   + f", static; level {model.level}" + (f": {note}" if note else ""))

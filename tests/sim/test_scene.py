@@ -171,13 +171,20 @@ def test_partners_are_dynamic_and_rest_on_static_supports():
 def test_levels_follow_the_fidelity_but_keep_holes_and_pins():
     plan, product, geo = plan_for("gear_unit")
     k = plan.step("wheel").index
-    fast = select_scene(plan, k, product, geo, FAST)
-    for name in ("wheel", "shaft", "bearing_block"):  # held, mate, support: features needed
+    # FAST with dynamic partners (as BALANCED): held, mate and support need their features
+    fast = select_scene(plan, k, product, geo, FAST.replace(dynamic_partners=True))
+    for name in ("wheel", "shaft", "bearing_block"):
         b = fast.body(name)
         assert b.level == "convex" and len(b.pieces) == len(
             geo.collision_model(name, "convex", measured=False).pieces), name
+    assert fast.body("shaft").dynamic and fast.body("bearing_block").role == "support"
     far = [b for b in fast.bodies if b.role == "obstacle" and b.distance_m > 5e-3]
     assert far and all(b.level == "coarse" and len(b.pieces) == 1 for b in far)
+    # the FAST preset itself: a static partner needs no support
+    fast = select_scene(plan, k, product, geo, FAST)
+    assert fast.body("shaft").role == "mate" and not fast.body("shaft").dynamic
+    assert "dynamic partners off" in fast.body("shaft").reason
+    assert not fast.names("support")
     accurate = select_scene(plan, k, product, geo, ACCURATE)
     # the wheel's exact model is a mesh (its bore): PyBullet gets the convex pieces
     assert accurate.body("wheel").level == "convex" and "mesh" in accurate.body("wheel").reason
@@ -226,3 +233,26 @@ def test_simulated_gripper_matches_the_planned_one():
     assert corners[:, 2].min() == pytest.approx(z_palm_back)
     assert corners[:, 2].max() == pytest.approx(pad[2] / 2)
     assert corners[:, 1].max() == pytest.approx(spec.max_opening_m / 2 + pad[1])
+
+
+def test_holes_that_stay_empty_are_modelled_solid():
+    from asmplan.sim.scene import empty_holes
+
+    plan, product, geo = plan_for("pinhole_station")
+    k = plan.step("part2").index
+    placed = {"part1"}
+    # part2's holes wait for part3 (not placed): empty; part1's holes receive part2's pins
+    assert empty_holes(product, "part2", placed | {"part2"}) == {"h1", "h2"}
+    assert empty_holes(product, "part1", placed | {"part2"}) == frozenset()
+    # a part waiting at its start pose: every mated hole is empty
+    assert empty_holes(product, "part3", placed | {"part2"}) == {"h1", "h2"}
+    scene = select_scene(plan, k, product, geo, BALANCED)
+    held, mate = scene.body("part2"), scene.body("part1")
+    full = geo.collision_model("part2", "convex", measured=False).pieces
+    assert sum(pc.kind == "hull" for pc in full) > 10  # two rings of sectors
+    # solid: one box, two pin cylinders and their chamfered tips
+    assert sorted(pc.kind for pc in held.pieces) == ["box", "cylinder", "cylinder", "hull", "hull"]
+    assert "left solid" in held.reason or "modelled solid" in held.reason
+    assert len(mate.pieces) == len(geo.collision_model("part1", "convex", measured=False).pieces)
+    # the part's mass properties stay those of the real part (holes cut)
+    assert held.mass_kg == pytest.approx(geo.mass_properties("part2").mass_kg)
