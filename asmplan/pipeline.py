@@ -43,6 +43,8 @@ class RunSettings:
     sequence: SequenceSettings = field(default_factory=SequenceSettings)
     cull: bool = True
     simulate: bool = True
+    workers: int | None = None
+    """Processes that simulate steps (None: one per usable core; 1 inside your own pool)."""
 
     @property
     def fidelity_preset(self) -> Fidelity:
@@ -121,6 +123,7 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
         result.warnings.extend(clearance_warnings(product, fidelity))
         result.results = simulate_plan(
             result.plan, product, geometry, fidelity, cull=settings.cull,
+            workers=settings.workers,
             progress=lambda i, n, part, status: status == "done" and tick("simulate", i + 1, n, part))
         # each step's own warnings stay with the step (results.json, the report's step section);
         # the run-level list holds the plan's notes and the fits the preset cannot resolve

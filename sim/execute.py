@@ -300,6 +300,31 @@ def execute_step(
     return record, outcome
 
 
+def failed_outcome(reasons: Sequence[str], warnings: Sequence[str] = (), wall_time_s: float = 0.0,
+                   *, nan_detected: bool = False) -> StepOutcome:
+    """A failed outcome with nothing measured (every figure NaN, the part counted as dropped):
+    the simulation produced no usable record (NaN at the first step, or the simulator
+    process died), for the reasons given."""
+    return StepOutcome(
+        success=False,
+        reasons=tuple(reasons),
+        warnings=tuple(warnings),
+        final_position_error_m=math.nan,
+        final_angle_error_rad=math.nan,
+        final_axial_error_m=math.nan,
+        max_slip_m=math.nan,
+        max_slip_rad=math.nan,
+        dropped=True,
+        peak_clamp_force_N=math.nan,
+        clamp_force_mae_N=math.nan,
+        peak_insertion_force_N=math.nan,
+        max_penetration_m=math.nan,
+        nan_detected=nan_detected,
+        energy_growth=False,
+        wall_time_s=wall_time_s,
+    )
+
+
 def judge(
     record: StepRecord,
     trajectory: Trajectory,
@@ -323,24 +348,8 @@ def judge(
     reasons: list[str] = []
     n = record.n_ticks
     if n == 0:
-        return StepOutcome(
-            success=False,
-            reasons=("no tick recorded (NaN at the first step)",),
-            warnings=warnings,
-            final_position_error_m=math.nan,
-            final_angle_error_rad=math.nan,
-            final_axial_error_m=math.nan,
-            max_slip_m=math.nan,
-            max_slip_rad=math.nan,
-            dropped=True,
-            peak_clamp_force_N=math.nan,
-            clamp_force_mae_N=math.nan,
-            peak_insertion_force_N=math.nan,
-            max_penetration_m=math.nan,
-            nan_detected=True,
-            energy_growth=False,
-            wall_time_s=wall_time_s,
-        )
+        return failed_outcome(("no tick recorded (NaN at the first step)",), warnings,
+                              wall_time_s, nan_detected=True)
     clamp_end = next((p.t_end_s for p in trajectory.phases if p.name == "clamp"), record.t_s[0])
     held = record.phase_mask(*HELD_PHASES) & (record.t_s >= clamp_end - 1e-12)
     max_slip = float(np.max(record.slip_m[held])) if held.any() else 0.0

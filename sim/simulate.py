@@ -21,7 +21,8 @@ are kept out of :meth:`PlanResults.to_json` (see :meth:`PlanResults.timing`).
 Worlds: one fresh world per step. Building a step's world costs 30-150 ms against seconds of
 simulation (measured on pinhole_station, see docs/results-format.md), so sharing one world
 through save/restore could save at most a few per cent, while it would put the bodies of
-every step into every step's collision detection.
+every step into every step's collision detection. Because the steps are independent worlds,
+``simulate_plan(workers=N)`` runs them in N forked processes with identical results.
 
 Gripper fingers: :class:`~asmplan.sim.gripper.CoupledGripper` (in :mod:`asmplan.sim.gripper`)
 couples the two force-controlled fingers like the rack and pinion of a real parallel gripper:
@@ -33,8 +34,12 @@ carried 200 mm along that axis drifted 10 mm off the TCP
 from __future__ import annotations
 
 import math
+import multiprocessing
+import os
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
@@ -44,7 +49,7 @@ from asmplan.fileio import atomic_write_json, dumps_json
 from asmplan.knowledge.model import Product
 from asmplan.planner.plan import Plan, Step
 from asmplan.sim.bullet import BulletWorld
-from asmplan.sim.execute import execute_step, scene_warnings
+from asmplan.sim.execute import execute_step, failed_outcome, scene_warnings
 from asmplan.sim.fidelity import BALANCED, PRESETS, Fidelity
 from asmplan.sim.gripper import CoupledGripper
 from asmplan.sim.records import StepOutcome, StepRecord, SuccessCriteria
@@ -412,12 +417,84 @@ def simulate_step(plan: Plan, index: int, product: Product, geometry: Any,
                       timing_s={"select": t1 - t0, "build": t2 - t1, "simulate": t3 - t2})
 
 
+_FORKED_JOB: tuple[Any, ...] | None = None
+"""What :func:`simulate_plan` hands to its forked worker processes (they inherit it)."""
+
+
+def _simulate_forked(index: int) -> StepResult:
+    assert _FORKED_JOB is not None, "simulate worker started without a job"
+    plan, product, geometry, fidelity, cull, settings, criteria = _FORKED_JOB
+    return simulate_step(plan, index, product, geometry, fidelity, cull=cull,
+                         settings=settings, criteria=criteria)
+
+
+def default_workers() -> int:
+    """Processes :func:`simulate_plan` uses when asked for "auto": the cores this process
+    may run on (``os.sched_getaffinity``), 1 where worker processes cannot be forked."""
+    if "fork" not in multiprocessing.get_all_start_methods():
+        return 1
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def _crashed(plan: Plan, k: int, exc: BaseException) -> StepResult:
+    step = plan.steps[k]
+    reason = (f"the simulator process died while simulating this step ({type(exc).__name__}: "
+              f"{exc}); PyBullet crashed on this scene - retry at another fidelity")
+    return StepResult(k, step.part, step.kind, failed_outcome((reason,)), None, None, (reason,),
+                      {"simulator": {"value": False, "limit": True, "ok": False}})
+
+
+def _simulate_parallel(plan: Plan, todo: list[int], workers: int, job: tuple[Any, ...],
+                       progress: ProgressFn | None) -> list[StepResult]:
+    """Steps in forked worker processes (each step builds its own world, so they are
+    independent and the results are the same as in one process). Longest trajectories are
+    started first; results come back in step order. A worker that dies fails its step (with
+    the reason) after one retry in a fresh process; the other steps are unaffected."""
+    global _FORKED_JOB
+    ctx = multiprocessing.get_context("fork")
+    moving = [k for k in todo if plan.steps[k].trajectory is not None]
+    order = sorted(moving, key=lambda k: -plan.steps[k].trajectory.duration_s)
+    done: dict[int, StepResult] = {}
+    _FORKED_JOB = job
+    try:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+            futures = {k: pool.submit(_simulate_forked, k) for k in order}
+            for n, k in enumerate(todo):
+                if k in futures:
+                    try:
+                        done[k] = futures[k].result()
+                    except BrokenProcessPool:
+                        break
+                else:
+                    done[k] = simulate_step(plan, k, *job[1:4], cull=job[4], settings=job[5],
+                                            criteria=job[6])
+                if progress is not None:
+                    progress(n, len(todo), plan.steps[k].part, "done")
+        for n, k in enumerate(todo):
+            if k in done:
+                continue
+            try:  # the pool broke: each unfinished step once more, alone
+                with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
+                    done[k] = pool.submit(_simulate_forked, k).result()
+            except BrokenProcessPool as exc:
+                done[k] = _crashed(plan, k, exc)
+            if progress is not None:
+                progress(n, len(todo), plan.steps[k].part, "done")
+    finally:
+        _FORKED_JOB = None
+    return [done[k] for k in todo]
+
+
 def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
                   fidelity: Fidelity = BALANCED, *, cull: bool = True,
                   settings: SceneSettings | None = None,
                   criteria: SuccessCriteria | None = None,
                   steps: Sequence[int] | None = None,
-                  progress: ProgressFn | None = None) -> PlanResults:
+                  progress: ProgressFn | None = None,
+                  workers: int | None = 1) -> PlanResults:
     """Simulate every step of ``plan`` (or the ``steps`` given) and judge each.
 
     Parameters
@@ -438,7 +515,12 @@ def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
     steps : sequence of int, optional
         Indices to simulate (default all).
     progress : callable, optional
-        ``progress(k, n, part, status)`` with status "start" or "done".
+        ``progress(k, n, part, status)``; status "start" and "done" in one process, only
+        "done" (in step order) with several.
+    workers : int or None
+        Processes to simulate steps in: 1 (default) in this process; more forks worker
+        processes (Linux; the steps are independent worlds, so the results are identical);
+        None means :func:`default_workers`. Pass 1 inside a process pool of your own.
 
     Returns
     -------
@@ -454,14 +536,23 @@ def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
     for k in todo:
         if not 0 <= k < len(plan.steps):
             raise IndexError(f"step {k}: expected 0..{len(plan.steps) - 1}")
-    results = []
-    for n, k in enumerate(todo):
-        if progress is not None:
-            progress(n, len(todo), plan.steps[k].part, "start")
-        results.append(simulate_step(plan, k, product, geometry, fidelity, cull=cull,
-                                     settings=s, criteria=criteria))
-        if progress is not None:
-            progress(n, len(todo), plan.steps[k].part, "done")
+    n_workers = default_workers() if workers is None else int(workers)
+    if n_workers < 1:
+        raise ValueError(f"workers: expected >= 1 or None, found {workers}")
+    n_moving = sum(plan.steps[k].trajectory is not None for k in todo)
+    n_workers = min(n_workers, n_moving)
+    if n_workers > 1 and "fork" in multiprocessing.get_all_start_methods():
+        job = (plan, product, geometry, fidelity, cull, s, criteria)
+        results = _simulate_parallel(plan, todo, n_workers, job, progress)
+    else:
+        results = []
+        for n, k in enumerate(todo):
+            if progress is not None:
+                progress(n, len(todo), plan.steps[k].part, "start")
+            results.append(simulate_step(plan, k, product, geometry, fidelity, cull=cull,
+                                         settings=s, criteria=criteria))
+            if progress is not None:
+                progress(n, len(todo), plan.steps[k].part, "done")
     return PlanResults(product=product.name, source=plan.source,
                        plan_sequence=tuple(plan.sequence), fidelity=fidelity, culled=cull,
                        scene_settings=s, steps=tuple(results),

@@ -13,12 +13,13 @@ import sys
 import time
 from importlib import resources
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
-from ..knowledge.loader import load_product
-from ..pipeline import RunResult, RunSettings, run_product, write_outputs
-from ..planner.plan import PlannerSettings
+from .argtypes import int_at_least
 from .plan import evidence_lines
+
+if TYPE_CHECKING:  # the pipeline (trimesh, scipy, pybullet) is imported when a run starts
+    from ..pipeline import RunResult
 
 
 def bundled_example(name: str = "pinhole_station") -> Path:
@@ -40,6 +41,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-report", action="store_true", help="skip rendering the report")
     p.add_argument("--no-cull", action="store_true",
                    help="load the whole product into every step's scene (slower; for comparison)")
+    p.add_argument("-j", "--jobs", type=int_at_least(1), default=None, metavar="N",
+                   help="processes that simulate steps in parallel (default: one per usable "
+                        "core; results are identical for any N)")
     p.set_defaults(func=run)
 
 
@@ -89,10 +93,14 @@ def summary_table(result: RunResult) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..knowledge.loader import load_product
+    from ..pipeline import RunSettings, run_product, write_outputs
+    from ..planner.plan import PlannerSettings
+
     path = Path(args.product) if args.product else bundled_example()
     product = load_product(path, display_name=args.product or "pinhole_station.yaml (bundled)")
     settings = RunSettings(fidelity=args.fidelity, planner=PlannerSettings(seed=args.seed),
-                           cull=not args.no_cull)
+                           cull=not args.no_cull, workers=args.jobs)
     progress = StageProgress(sys.stderr)
     result = run_product(product, settings, progress=progress)
     write_outputs(result, args.out, report=not args.no_report, progress=progress)

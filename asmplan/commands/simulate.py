@@ -22,6 +22,7 @@ from ..fileio import atomic_write_json
 from ..knowledge.errors import InputIssue, ProductError
 from ..knowledge.loader import load_product
 from ..planner.plan import Plan
+from .argtypes import int_at_least
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -44,6 +45,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="wall-clock times file (default: <output stem>.timing.json)")
     p.add_argument("--no-cull", action="store_true",
                    help="keep every part in every step's scene (slower; for comparison)")
+    p.add_argument("-j", "--jobs", type=int_at_least(1), default=None, metavar="N",
+                   help="processes that simulate steps in parallel (default: one per usable "
+                        "core; results are identical for any N)")
     p.set_defaults(func=run)
 
 
@@ -105,10 +109,12 @@ def run(args: argparse.Namespace) -> int:
     def progress(k: int, n: int, part: str, status: str) -> None:
         if status == "start":
             print(f"simulating step {k + 1}/{n}: {part} ...", file=sys.stderr, flush=True)
+        elif args.jobs != 1:
+            print(f"simulated step {k + 1}/{n}: {part}", file=sys.stderr, flush=True)
 
     try:
         results = simulate_plan(plan, product, fidelity=fidelity, cull=not args.no_cull,
-                                progress=progress)
+                                progress=progress, workers=args.jobs)
     except PlanProductMismatchError as exc:
         raise _plan_issue(args.plan, f"the plan does not match its product file {src}: "
                                      f"{exc}") from None
