@@ -1,7 +1,8 @@
 """Seeded generator of realistic test products of any size (for tests and scaling benchmarks).
 
 A generated product is a fixtured base plate carrying a grid of cells. Each cell holds a
-stack of 1-3 blocks, each block pinned into the one below (two H7/g6 pins going down, -z).
+stack of 1-3 blocks, each block pinned into the one below (two pins going down, -z; fit
+H7/g6 unless ``fit`` says otherwise).
 Some cells add a side plate pinned horizontally into the top block's +x or +y face (inserted
 along -x or -y), and some a cover on the top block: a flat cover pinned into it (-z) or,
 when the cell has a side plate, an L-shaped cover that rests on the block with a flange
@@ -63,7 +64,7 @@ def _r(v: float) -> float:
     return round(float(v), 6)
 
 
-def generate_product(n_parts: int, seed: int) -> dict[str, Any]:
+def generate_product(n_parts: int, seed: int, *, fit: str | float = "H7/g6") -> dict[str, Any]:
     """A YAML-ready product document with exactly ``n_parts`` parts.
 
     Parameters
@@ -72,6 +73,12 @@ def generate_product(n_parts: int, seed: int) -> dict[str, Any]:
         Number of parts, >= 2 (the base plate and at least one block).
     seed : int
         Seed of ``numpy.random.default_rng``; the same (n_parts, seed) gives the same document.
+    fit : str or float
+        Fit of every pin in its hole: an ISO 286 fit name (default "H7/g6", 4-24 um on the 6 mm
+        pins), or a diametral clearance in millimetres (a mate ``clearance``). Simulation
+        benchmarks pass a clearance the preset resolves
+        (``Fidelity.min_resolvable_clearance_m``), so that a failed step is physics, not the
+        preset's resolution.
 
     Returns
     -------
@@ -81,6 +88,12 @@ def generate_product(n_parts: int, seed: int) -> dict[str, Any]:
     """
     if not isinstance(n_parts, int) or n_parts < 2:
         raise ValueError(f"n_parts: expected an integer >= 2, found {n_parts!r}")
+    if isinstance(fit, str):
+        fit_spec: dict[str, Any] = {"fit": fit}
+    elif isinstance(fit, int | float) and not isinstance(fit, bool) and math.isfinite(fit) and fit >= 0:
+        fit_spec = {"clearance": _r(fit)}
+    else:
+        raise ValueError(f"fit: expected an ISO fit name or a clearance >= 0 in mm, found {fit!r}")
     rng = np.random.default_rng(seed)
     cells = _cells(n_parts, rng)
     cols = math.ceil(math.sqrt(len(cells)))
@@ -125,7 +138,7 @@ def generate_product(n_parts: int, seed: int) -> dict[str, Any]:
                                            _r(below_top_z - below_centre[2])],
                                     "diameter": PIN_D_MM, "depth": PIN_L_MM + 2.0, "chamfer": 0.5})
                 mates.append({"name": f"{name}_pin_{tag}", "pin": f"{name}.p{tag}",
-                              "hole": f"{below}.{hole_name}", "fit": "H7/g6"})
+                              "hole": f"{below}.{hole_name}", **fit_spec})
             block = {"name": name, "material": "aluminium" if lv % 2 == 0 else "pom",
                      "geometry": {"type": "box", "size": [bx, by, bz], "holes": holes,
                                   "pins": [{"name": f"p{tag}", "at": [s * PIN_X_MM, 0.0, -bz / 2],
@@ -158,7 +171,7 @@ def generate_product(n_parts: int, seed: int) -> dict[str, Any]:
                           "pose": {"xyz": [_r(v) for v in centre]},
                           "start": start(SIDE_H_MM)})
             mates.append({"name": f"{side_name}_pin", "pin": f"{side_name}.p",
-                          "hole": f"{top_name}.hs", "fit": "H7/g6"})
+                          "hole": f"{top_name}.hs", **fit_spec})
         if cell["cover"]:
             name = f"c{ci}_cover"
             if side_name is None:
@@ -168,7 +181,7 @@ def generate_product(n_parts: int, seed: int) -> dict[str, Any]:
                     top_holes.append({"name": f"hc{tag}", "at": [s * PIN_X_MM, 0.0, bz / 2],
                                       "diameter": PIN_D_MM, "depth": PIN_L_MM + 2.0, "chamfer": 0.5})
                     mates.append({"name": f"{name}_pin_{tag}", "pin": f"{name}.p{tag}",
-                                  "hole": f"{top_name}.hc{tag}", "fit": "H7/g6"})
+                                  "hole": f"{top_name}.hc{tag}", **fit_spec})
                 parts.append({"name": name, "material": "aluminium",
                               "geometry": {"type": "box", "size": [50.0, 50.0, COVER_T_MM],
                                            "pins": [{"name": f"p{tag}",
@@ -237,9 +250,9 @@ def product_yaml(doc: dict[str, Any]) -> str:
     return yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=110)
 
 
-def generated_product(n_parts: int, seed: int) -> Product:
+def generated_product(n_parts: int, seed: int, *, fit: str | float = "H7/g6") -> Product:
     """:func:`generate_product`, validated and built like a file would be."""
-    doc = generate_product(n_parts, seed)
+    doc = generate_product(n_parts, seed, fit=fit)
     located = parse_located(product_yaml(doc), f"<generated {n_parts} parts, seed {seed}>")
     return build_product(located, Path.cwd())
 

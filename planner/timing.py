@@ -12,7 +12,8 @@ A min-jerk move of length ``D`` in time ``T`` peaks at ``v = 1.875 D / T`` and
 
 Phases: approach (fingers open), clamp (force ramps 0 -> F), hold, lift, translate,
 lower (approach to the hole mouth at the travel limits, then the insertion at the insertion
-speed), release (F -> 0), retreat (fingers open). See :mod:`asmplan.planner.trajectory`.
+speed), release (F -> 0), retreat (fingers open: the gripper stands still for ``open_s``,
+then moves). See :mod:`asmplan.planner.trajectory`.
 
 Clamp force
 -----------
@@ -227,15 +228,21 @@ class StepMotion:
 
 @dataclass(frozen=True)
 class TimingSettings:
-    """Dwell times (s) of the force phases and the sample spacing (s) of trajectories."""
+    """Dwell times (s) of the force phases and the sample spacing (s) of trajectories.
+
+    ``open_s``: the retreat starts with the gripper standing still at the seated pose while
+    the fingers open (a real cell waits for the gripper's "open" signal); moving at once drags
+    a loosely fitted part out of its hole by the pads' friction.
+    """
 
     clamp_s: float = 0.3
     hold_s: float = 0.2
     release_s: float = 0.3
+    open_s: float = 0.2
     sample_dt_s: float = 0.01
 
     def __post_init__(self) -> None:
-        for label in ("clamp_s", "hold_s", "release_s", "sample_dt_s"):
+        for label in ("clamp_s", "hold_s", "release_s", "open_s", "sample_dt_s"):
             v = getattr(self, label)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"TimingSettings.{label}: expected > 0, found {v}")
@@ -328,7 +335,11 @@ def time_step(motion: StepMotion, limits: MotionLimits, force_N: float, radius_m
     seated = TL[-1]
     tau, T = _dwell(seated, settings.release_s, dt)
     add("release", tau, T, force_N * (1.0 - tau / tau[-1]))
-    moving("retreat", motion.retreat, v, 0.0, 0.0)
+    tau_open, T_open = _dwell(seated, settings.open_s, dt)
+    tau, T = _polyline_samples(np.asarray(motion.retreat, float), v, a, radius_m, dt)
+    tau = np.concatenate([tau_open, tau_open[-1] + tau[1:]])
+    T = np.concatenate([T_open, T[1:]])
+    add("retreat", tau, T, np.zeros(tau.shape))
 
     t_all: list[np.ndarray] = []
     T_all: list[np.ndarray] = []
