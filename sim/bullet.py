@@ -124,6 +124,15 @@ def pq_to_pose(position: Sequence[float], quat_xyzw: Sequence[float]) -> np.ndar
     return T
 
 
+def _pose_from_bullet(position: Sequence[float], quat_xyzw: Sequence[float]) -> np.ndarray:
+    """:func:`pq_to_pose` for PyBullet's own unit quaternions (its C conversion, ~10x faster
+    in the per-step loop)."""
+    T = np.eye(4)
+    T[:3, :3] = np.reshape(pybullet.getMatrixFromQuaternion(quat_xyzw), (3, 3))
+    T[:3, 3] = position
+    return T
+
+
 def invert_pose(T: np.ndarray) -> np.ndarray:
     """Inverse of a (4, 4) rigid transform."""
     Ti = np.eye(4)
@@ -141,6 +150,46 @@ def principal_frame(inertia_kgm2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if np.linalg.det(axes) < 0:
         axes[:, 2] = -axes[:, 2]
     return moments, axes
+
+
+_OBJ_CACHE: dict[bytes, str] = {}
+_OBJ_CACHE_MAX = 512
+
+
+def _hulls_obj_text(hulls: Sequence[ConvexPiece]) -> str:
+    """Wavefront OBJ text with one object per hull (vertices in the body frame), cached by
+    content: a part is built in several steps' worlds, its hulls are computed once."""
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=20)
+    for pc in hulls:
+        assert pc.vertices_m is not None
+        h.update(np.ascontiguousarray(pc.vertices_m, dtype=float).tobytes())
+        h.update(np.ascontiguousarray(pc.T_part_piece, dtype=float).tobytes())
+        h.update(b"|")
+    key = h.digest()
+    text = _OBJ_CACHE.get(key)
+    if text is not None:
+        return text
+    import trimesh
+
+    lines = []
+    offset = 1
+    for k, pc in enumerate(hulls):
+        assert pc.vertices_m is not None
+        R, t = pc.T_part_piece[:3, :3], pc.T_part_piece[:3, 3]
+        hull = trimesh.convex.convex_hull(pc.vertices_m @ R.T + t)
+        lines.append(f"o hull{k}")
+        lines.extend(f"v {x!r} {y!r} {z!r}" for x, y, z in hull.vertices.tolist())
+        lines.extend(
+            f"f {i + offset} {j + offset} {m + offset}" for i, j, m in hull.faces.tolist()
+        )
+        offset += len(hull.vertices)
+    text = "\n".join(lines) + "\n"
+    if len(_OBJ_CACHE) >= _OBJ_CACHE_MAX:
+        _OBJ_CACHE.clear()
+    _OBJ_CACHE[key] = text
+    return text
 
 
 def _is_compound(group: Sequence[ConvexPiece]) -> bool:
@@ -293,6 +342,9 @@ class _BodyInfo:
     inertia_kgm2: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
     compound_links: frozenset[int] = frozenset()
 
+    def __post_init__(self) -> None:
+        self.T_inertial_link = invert_pose(self.T_link_inertial)
+
 
 # --------------------------------------------------------------------------------------------
 # World
@@ -435,25 +487,12 @@ class BulletWorld:
         every child. The file lives in a temporary folder removed by :meth:`close` (PyBullet
         reads it again when the body is created).
         """
-        import trimesh
-
-        lines = []
-        offset = 1
-        for k, pc in enumerate(hulls):
-            assert pc.vertices_m is not None
-            R, t = pc.T_part_piece[:3, :3], pc.T_part_piece[:3, 3]
-            hull = trimesh.convex.convex_hull(pc.vertices_m @ R.T + t)
-            lines.append(f"o hull{k}")
-            lines.extend(f"v {x!r} {y!r} {z!r}" for x, y, z in hull.vertices.tolist())
-            lines.extend(
-                f"f {i + offset} {j + offset} {m + offset}" for i, j, m in hull.faces.tolist()
-            )
-            offset += len(hull.vertices)
+        text = _hulls_obj_text(hulls)
         if self._tmpdir is None:
             self._tmpdir = tempfile.mkdtemp(prefix="asmplan_bullet_")
         fd, path = tempfile.mkstemp(suffix=".obj", prefix="hulls_", dir=self._tmpdir)
         with os.fdopen(fd, "w", encoding="ascii") as fh:
-            fh.write("\n".join(lines) + "\n")
+            fh.write(text)
         sid = pybullet.createCollisionShape(
             pybullet.GEOM_MESH, fileName=path, physicsClientId=self.client_id
         )
@@ -743,10 +782,9 @@ class BulletWorld:
         cid = self.client_id
         if link == -1:
             p, q = pybullet.getBasePositionAndOrientation(body, physicsClientId=cid)
-            T_world_inertial = pq_to_pose(p, q)
-            return T_world_inertial @ invert_pose(self._bodies[body].T_link_inertial)
+            return _pose_from_bullet(p, q) @ self._bodies[body].T_inertial_link
         st = pybullet.getLinkState(body, link, computeForwardKinematics=1, physicsClientId=cid)
-        return pq_to_pose(st[4], st[5])
+        return _pose_from_bullet(st[4], st[5])
 
     def set_pose(self, body: int, T_world_body: np.ndarray) -> None:
         """Teleport a body's base link frame to ``T_world_body`` (4, 4)."""
@@ -808,29 +846,25 @@ class BulletWorld:
             e3 = np.zeros((0, 3))
             ei = np.zeros(0, dtype=int)
             return Contacts(ei, ei, ei, e3, e3, e3, e, e, e3)
-        cols = list(zip(*pts, strict=True))
-        arr_b = np.array(cols[2], dtype=int)
-        la = np.array(cols[3], dtype=int)
-        lb = np.array(cols[4], dtype=int)
-        pa = np.array(cols[5], dtype=float)
-        pb = np.array(cols[6], dtype=float)
-        nb = np.array(cols[7], dtype=float)
-        dist = np.array(cols[8], dtype=float)
-        fn = np.array(cols[9], dtype=float)
-        fric = (np.array(cols[10], dtype=float)[:, None] * np.array(cols[11], dtype=float)
-                + np.array(cols[12], dtype=float)[:, None] * np.array(cols[13], dtype=float))
+        # one array: body_b, link_a, link_b, pos_a (3), pos_b (3), normal (3), distance,
+        # normal force, friction 1, its direction (3), friction 2, its direction (3)
+        a = np.array([(c[2], c[3], c[4], *c[5], *c[6], *c[7], c[8], c[9], c[10], *c[11],
+                       c[12], *c[13]) for c in pts], dtype=float)
+        arr_b = a[:, 0].astype(int)
+        la = a[:, 1].astype(int)
+        lb = a[:, 2].astype(int)
+        pa, pb, nb = a[:, 3:6], a[:, 6:9], a[:, 9:12]
+        dist, fn = a[:, 12], a[:, 13]
+        fric = a[:, 14:15] * a[:, 15:18] + a[:, 18:19] * a[:, 19:22]
         # PyBullet reports friction as the force on the contact manifold's body 0. Measured
         # rule (tests/sim/test_bullet.py): when exactly one of the two colliders is a compound
         # shape, the compound is body 0; otherwise the collider created first is (lower body
         # id; within a body, lower link index, base first).
         info_a = self._bodies[body_a]
-        comp_a = np.array([link in info_a.compound_links for link in la])
-        comp_b = np.array(
-            [
-                link in self._bodies[b].compound_links if b in self._bodies else False
-                for b, link in zip(arr_b, lb, strict=True)
-            ]
-        )
+        bodies = self._bodies
+        comp_a = np.array([c[3] in info_a.compound_links for c in pts])
+        comp_b = np.array([c[4] in bodies[c[2]].compound_links if c[2] in bodies else False
+                           for c in pts])
         created_first = (body_a < arr_b) | ((body_a == arr_b) & (la < lb))
         a_is_body0 = np.where(comp_a != comp_b, comp_a, created_first)
         fric = np.where(a_is_body0[:, None], fric, -fric)

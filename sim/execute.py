@@ -55,6 +55,10 @@ step at FAST (1/240 s), every 4th at BALANCED and every 16th at ACCURATE (their 
 Single-step impact spikes between two samples are not seen."""
 
 
+def _is_finger_link(links: np.ndarray) -> np.ndarray:
+    return (links == FINGER_LINKS[0]) | (links == FINGER_LINKS[1])
+
+
 def _finger_frame(T_world_tcp: np.ndarray, travel: np.ndarray) -> np.ndarray:
     T = T_world_tcp.copy()
     y_mid = 0.5 * (travel[1] - travel[0])
@@ -228,7 +232,7 @@ def execute_step(
                 continue
             if is_lower[i]:
                 con = world.contacts(part_body)
-                is_finger = (con.body_b == gripper.body) & np.isin(con.link_b, FINGER_LINKS)
+                is_finger = (con.body_b == gripper.body) & _is_finger_link(con.link_b)
                 peak_insert_between = max(peak_insert_between, float(
                     np.linalg.norm(con.select(~is_finger).force_on_a_N())))
                 pen_between = max(pen_between, con.max_penetration_m())
@@ -239,7 +243,7 @@ def execute_step(
         T_tcp = gripper.tcp_pose()
         travel = gripper.finger_travel_m()
         con = world.contacts(part_body)
-        is_finger = (con.body_b == gripper.body) & np.isin(con.link_b, FINGER_LINKS)
+        is_finger = (con.body_b == gripper.body) & _is_finger_link(con.link_b)
         forces = [
             float(np.sum(con.normal_force_N[is_finger & (con.link_b == link)]))
             for link in FINGER_LINKS
