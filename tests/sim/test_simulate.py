@@ -235,3 +235,41 @@ def test_cli_help_prints_no_engine_noise():
                          capture_output=True, text=True, check=True)
     assert "--fidelity {accurate,balanced,fast}" in out.stdout
     assert out.stderr == ""  # e.g. no "pybullet build time" line
+
+
+# ---------------------------------------------------------------------------------------------
+# Steps in worker processes
+# ---------------------------------------------------------------------------------------------
+def test_steps_in_worker_processes_give_identical_results():
+    plan, product, geo = plan_for("pinhole_station")
+    one = simulate_plan(plan, product, geo, FAST, workers=1)
+    seen: list[tuple[int, str]] = []
+    two = simulate_plan(plan, product, geo, FAST, workers=2,
+                        progress=lambda k, n, part, status: seen.append((k, status)))
+    assert two.to_json() == one.to_json()  # bit-identical results, records included
+    assert seen == [(k, "done") for k in range(len(plan.steps))]  # in step order
+
+
+def test_a_worker_that_dies_fails_its_step_with_the_reason(monkeypatch):
+    import os
+
+    import asmplan.sim.simulate as sim
+
+    plan, product, geo = plan_for("pinhole_station")
+    real = sim.simulate_step
+
+    def dies_on_part3(plan_, k, *args, **kwargs):
+        if plan_.steps[k].part == "part3":
+            os._exit(3)  # as a segfault in PyBullet would end the worker
+        return real(plan_, k, *args, **kwargs)
+
+    monkeypatch.setattr(sim, "simulate_step", dies_on_part3)
+    results = simulate_plan(plan, product, geo, FAST, workers=2)
+    by_part = {s.part: s for s in results.steps}
+    assert not results.success
+    bad = by_part["part3"]
+    assert not bad.success and bad.failed_criteria == ("simulator",)
+    assert "simulator process died" in bad.reasons[0]
+    assert by_part["part2"].success and by_part["part4"].success
+    with pytest.raises(ValueError, match="workers: expected >= 1"):
+        simulate_plan(plan, product, geo, FAST, workers=0)
