@@ -520,7 +520,9 @@ def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
     workers : int or None
         Processes to simulate steps in: 1 (default) in this process; more forks worker
         processes (Linux; the steps are independent worlds, so the results are identical);
-        None means :func:`default_workers`. Pass 1 inside a process pool of your own.
+        None: one per step when there are at most twice as many steps as
+        :func:`default_workers` (they share the cores and end together), else one per core.
+        Pass 1 inside a process pool of your own.
 
     Returns
     -------
@@ -536,11 +538,16 @@ def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
     for k in todo:
         if not 0 <= k < len(plan.steps):
             raise IndexError(f"step {k}: expected 0..{len(plan.steps) - 1}")
-    n_workers = default_workers() if workers is None else int(workers)
-    if n_workers < 1:
+    if workers is not None and int(workers) < 1:
         raise ValueError(f"workers: expected >= 1 or None, found {workers}")
     n_moving = sum(plan.steps[k].trajectory is not None for k in todo)
-    n_workers = min(n_workers, n_moving)
+    if workers is None:
+        # up to twice as many steps as cores all run at once: 3 equal steps on 2 cores end
+        # after 1.5 step times shared, against 2 in two rounds of 2
+        cores = default_workers()
+        n_workers = n_moving if n_moving <= 2 * cores else cores
+    else:
+        n_workers = min(int(workers), n_moving)
     if n_workers > 1 and "fork" in multiprocessing.get_all_start_methods():
         job = (plan, product, geometry, fidelity, cull, s, criteria)
         results = _simulate_parallel(plan, todo, n_workers, job, progress)
