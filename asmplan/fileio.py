@@ -61,9 +61,27 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
+_INDENT_LEVELS = 4
+
+
 def dumps_json(data: Any) -> str:
-    """Deterministic JSON text: sorted keys, 2-space indent, trailing newline."""
-    return json.dumps(data, indent=2, sort_keys=True, allow_nan=False) + "\n"
+    """Deterministic JSON text: sorted keys, trailing newline; objects (and lists holding
+    objects) indented by 2 spaces down to 4 levels, anything deeper or any list of numbers
+    on one line. Readable where it matters and ~5x faster on recorded arrays than a full
+    indent (which forces Python's pure-Python encoder)."""
+    return _dumps(data, 0) + "\n"
+
+
+def _dumps(v: Any, level: int) -> str:
+    pad, inner = "  " * level, "  " * (level + 1)
+    if level < _INDENT_LEVELS:
+        if isinstance(v, dict) and v:
+            items = sorted((str(k), x) for k, x in v.items())
+            return "{\n" + ",\n".join(f"{inner}{json.dumps(k)}: {_dumps(x, level + 1)}"
+                                      for k, x in items) + f"\n{pad}}}"
+        if isinstance(v, list | tuple) and any(isinstance(x, dict) for x in v):
+            return "[\n" + ",\n".join(f"{inner}{_dumps(x, level + 1)}" for x in v) + f"\n{pad}]"
+    return json.dumps(v, sort_keys=True, allow_nan=False, separators=(", ", ": "))
 
 
 def atomic_write_json(path: str | os.PathLike[str], data: Any) -> Path:
