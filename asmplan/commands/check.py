@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import argparse
 import json
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..knowledge.loader import load_product
-from ..parts.check import AssemblyCheck, check_assembly
 from ..parts.lod import LEVELS
-from ..parts.models import ProductGeometry
+
+if TYPE_CHECKING:  # geometry and FCL are imported when the check runs
+    from ..parts.check import AssemblyCheck
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -74,6 +75,10 @@ def render(result: AssemblyCheck) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..knowledge.loader import load_product
+    from ..parts.check import check_assembly
+    from ..parts.models import ProductGeometry
+
     product = load_product(args.product)
     geometry = ProductGeometry(product)
     result = check_assembly(product, geometry, level=args.level, tolerance_m=args.tolerance_um * 1e-6)

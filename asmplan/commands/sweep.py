@@ -28,8 +28,6 @@ from typing import Any
 from ..fileio import atomic_write_json
 from ..knowledge.errors import InputIssue, ProductError
 from ..knowledge.loader import load_product
-from ..report.plots import factor_unit
-from ..report.sweep import write_sweep_report
 from .argtypes import nonnegative_float, nonnegative_int, positive_int
 
 
@@ -199,6 +197,9 @@ def run(args: argparse.Namespace) -> int:
         "format": "asmplan-sweep", "version": 1, "product": product.name,
         "spec": spec.to_dict(), "fidelity": fidelity.name, "fingerprint": header["fingerprint"],
         "capture_m": captures, "summary": summary.to_dict(), "samples": table})
+    from ..report.plots import factor_unit  # the report (jinja2, matplotlib) only here
+    from ..report.sweep import write_sweep_report
+
     write_sweep_report(out, product, summary, spec.to_dict(), fidelity.name, captures,
                        n_samples=len(samples))
 
