@@ -160,7 +160,8 @@ class _Entry:
 
     __slots__ = ("T", "aabb", "bbox", "corners", "fresh", "geoms", "model", "name", "objects", "tf_part")
 
-    def __init__(self, name: str, model: CollisionModel, geoms: tuple[_Geom, ...], T: np.ndarray):
+    def __init__(self, name: str, model: CollisionModel, geoms: tuple[_Geom, ...], T: np.ndarray,
+                 bbox: np.ndarray | None = None):
         self.name = name
         self.model = model
         self.geoms = geoms
@@ -168,7 +169,7 @@ class _Entry:
         self.objects = [fcl.CollisionObject(g.geometry, fcl.Transform()) for g in geoms]
         self.T = np.eye(4)
         self.aabb = np.zeros((len(geoms), 2, 3))
-        self.bbox = np.zeros((2, 3))
+        self.bbox = np.zeros((2, 3)) if bbox is None else bbox  # a view into the world's boxes
         self.fresh = [False] * len(geoms)
         self.tf_part = None
         self.set_pose(T)
@@ -246,6 +247,12 @@ class CollisionWorld:
         self.shapes = shapes or FclShapes()
         self._entries: dict[str, _Entry] = {}
         self._meshes: dict[int, tuple[CollisionModel, object]] = {}
+        # every name's world AABB is a row of one array (each entry's ``bbox`` is a view of its
+        # row), so the boxes of many names are one fancy-indexing gather (:meth:`aabbs`)
+        self._boxes = np.zeros((16, 2, 3))
+        self._slots: dict[str, int] = {}
+        self._free: list[int] = []
+        self._rows: dict[tuple[str, ...], np.ndarray] = {}
 
     # -- content ------------------------------------------------------------------------------
     @property
@@ -260,11 +267,34 @@ class CollisionWorld:
         geoms = self.shapes.geoms(model)
         if not geoms:
             raise ValueError(f'"{name}": expected a collision model with pieces or a mesh, found none')
-        self._entries[name] = _Entry(name, model, geoms, T_world_part)
+        slot = self._slots.get(name)
+        new = slot is None
+        if new:
+            if self._free:
+                slot = self._free.pop()
+            else:
+                slot = len(self._slots)
+                if slot == len(self._boxes):  # grow; the entries' views move to the new array
+                    boxes = np.zeros((2 * len(self._boxes), 2, 3))
+                    boxes[:slot] = self._boxes
+                    self._boxes = boxes
+                    for n, e in self._entries.items():
+                        e.bbox = boxes[self._slots[n]]
+        try:
+            entry = _Entry(name, model, geoms, T_world_part, self._boxes[slot])
+        except BaseException:
+            if new:
+                self._free.append(slot)
+            raise
+        if new:
+            self._slots[name] = slot
+        self._entries[name] = entry
 
     def remove(self, name: str) -> None:
         self._entry(name)
         del self._entries[name]
+        self._free.append(self._slots.pop(name))
+        self._rows.clear()
 
     def set_pose(self, name: str, T_world_part: np.ndarray) -> None:
         """Move ``name`` to ``T_world_part`` (4, 4)."""
@@ -280,6 +310,19 @@ class CollisionWorld:
     def aabb(self, name: str) -> np.ndarray:
         """World axis-aligned bounding box (2, 3): min and max corner, metres."""
         return self._entry(name).bbox.copy()
+
+    def aabbs(self, names: Sequence[str]) -> np.ndarray:
+        """World axis-aligned bounding boxes (k, 2, 3) of ``names`` (a new array), metres."""
+        key = tuple(names)
+        rows = self._rows.get(key)
+        if rows is None:
+            for n in key:
+                self._entry(n)  # KeyError naming the known objects
+            rows = np.array([self._slots[n] for n in key], dtype=np.intp)
+            if len(self._rows) > 256:
+                self._rows.clear()
+            self._rows[key] = rows
+        return self._boxes[rows]
 
     def _entry(self, name: str) -> _Entry:
         try:
@@ -455,15 +498,21 @@ class CollisionWorld:
         e = self._entry(name)
         targets = self._others(name, others)
         blockers: set[str] = set()
-        swept = [_swept_object(g, e.T, delta) for g in e.geoms if g.piece is not None]
+        # swept boxes first; a piece's swept FCL object is built when a box first meets one
+        pieces = [g for g in e.geoms if g.piece is not None]
+        swept_boxes = [_swept_aabb(g, e.T, delta) for g in pieces]
+        swept_objs: list[object] = [None] * len(pieces)
         lo = np.minimum(e.bbox[0], e.bbox[0] + delta)
         hi = np.maximum(e.bbox[1], e.bbox[1] + delta)
         for o in targets:
             if not _boxes_overlap(np.stack([lo, hi]), o.bbox):
                 continue
             hit = False
-            for obj, aabb in swept:
+            for k, aabb in enumerate(swept_boxes):
                 cand = np.nonzero(np.all((aabb[0] <= o.aabb[:, 1]) & (o.aabb[:, 0] <= aabb[1]), axis=1))[0]
+                if len(cand) and swept_objs[k] is None:
+                    swept_objs[k] = _swept_geometry(pieces[k], e.T, delta)
+                obj = swept_objs[k]
                 for j in cand:
                     if fcl.collide(obj, o.obj(j), _REQ_BOOL, fcl.CollisionResult()) and (
                             tolerance_m <= 0 or _max_depth(obj, o.obj(j))[0] > tolerance_m):
@@ -503,9 +552,16 @@ class CollisionWorld:
         return blockers
 
 
-def _swept_object(g: _Geom, T_world_part: np.ndarray, delta: np.ndarray):
-    """An FCL object for the volume swept by piece ``g`` under translation ``delta`` (world),
-    with its world AABB (2, 3)."""
+def _swept_aabb(g: _Geom, T_world_part: np.ndarray, delta: np.ndarray) -> np.ndarray:
+    """World AABB (2, 3) of the volume swept by piece ``g`` under translation ``delta``."""
+    corners = g.corners_part @ T_world_part[:3, :3].T + T_world_part[:3, 3]
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    return np.stack([np.minimum(lo, lo + delta), np.maximum(hi, hi + delta)])
+
+
+def _swept_geometry(g: _Geom, T_world_part: np.ndarray, delta: np.ndarray):
+    """An FCL object (at its world pose) for the volume swept by piece ``g`` under
+    translation ``delta`` (world)."""
     pc = g.piece
     T = T_world_part @ g.T_part_geom
     R, t = T[:3, :3], T[:3, 3]
@@ -534,11 +590,7 @@ def _swept_object(g: _Geom, T_world_part: np.ndarray, delta: np.ndarray):
         allp = np.concatenate([pts, pts + delta])
         Tw = np.eye(4)
         geom = _convex(allp)
-    obj = fcl.CollisionObject(geom, _tf(Tw))
-    corners = g.corners_part @ T_world_part[:3, :3].T + T_world_part[:3, 3]
-    lo, hi = corners.min(axis=0), corners.max(axis=0)
-    aabb = np.stack([np.minimum(lo, lo + delta), np.maximum(hi, hi + delta)])
-    return obj, aabb
+    return fcl.CollisionObject(geom, _tf(Tw))
 
 
 def _along_local_axis(R: np.ndarray, u: np.ndarray, dist: float) -> int | None:

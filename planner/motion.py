@@ -361,6 +361,18 @@ def _coarse(name: str) -> str:
     return f"{name}~coarse"
 
 
+def _box_gaps(box: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """Distance (k,) between ``box`` (2, 3) and each of ``boxes`` (k, 2, 3), m."""
+    g = np.maximum(0.0, np.maximum(boxes[:, 0] - box[1], box[0] - boxes[:, 1]))
+    return np.sqrt((g * g).sum(axis=1))
+
+
+def _near_mask(box: np.ndarray, boxes: np.ndarray, margin: float) -> np.ndarray:
+    """Which of ``boxes`` (k, 2, 3) come within ``margin`` of ``box`` (2, 3): bool (k,)."""
+    return (np.all(box[0] <= boxes[:, 1] + margin, axis=1)
+            & np.all(boxes[:, 0] <= box[1] + margin, axis=1))
+
+
 class Scene:
     """A :class:`CollisionWorld` holding the table, every part and the gripper variants.
 
@@ -446,22 +458,17 @@ class Scene:
 
     def near(self, box: np.ndarray, obstacles: Sequence[str], margin: float = 0.0) -> list[str]:
         """Obstacles whose world box comes within ``margin`` of ``box``."""
-        out = []
-        for o in obstacles:
-            ob = self.world.aabb(o)
-            if np.all(box[0] <= ob[1] + margin) and np.all(ob[0] <= box[1] + margin):
-                out.append(o)
-        return out
+        if not len(obstacles):
+            return []
+        return [o for o, k in zip(obstacles, _near_mask(box, self.world.aabbs(obstacles), margin),
+                                  strict=True) if k]
 
     def gap(self, box: np.ndarray, obstacles: Sequence[str]) -> float:
         """Smallest distance between ``box`` and the obstacles' world boxes, m (a lower bound
         of the true distance)."""
-        best = math.inf
-        for o in obstacles:
-            ob = self.world.aabb(o)
-            g = np.maximum(0.0, np.maximum(ob[0] - box[1], box[0] - ob[1]))
-            best = min(best, float(math.sqrt(float((g * g).sum()))))
-        return best
+        if not len(obstacles):
+            return math.inf
+        return float(_box_gaps(box, self.world.aabbs(obstacles)).min())
 
     def hits(self, name: str, T: np.ndarray, obstacles: Sequence[str]) -> list[str]:
         """Obstacles that body ``name`` at ``T`` penetrates (deeper than the tolerance)."""
@@ -542,7 +549,7 @@ class Scene:
         w = boxes @ T[:3, :3].T + T[:3, 3]
         lo = np.minimum(w.min(axis=1), w.min(axis=1) + delta)
         hi = np.maximum(w.max(axis=1), w.max(axis=1) + delta)
-        ob = np.array([self.world.aabb(o) for o in obstacles])
+        ob = self.world.aabbs(obstacles)
         over = ((lo[:, None] <= ob[None, :, 1]) & (ob[None, :, 0] <= hi[:, None])).all(axis=2)
         keep = tuple(int(i) for i in np.flatnonzero(over.any(axis=1)))
         if not keep:
@@ -564,14 +571,19 @@ class Scene:
         best, who = math.inf, ""
         for name, T in bodies:
             box = self.box_at(name, T)
-            g = self.gap(box, obstacles)
+            if not len(obstacles):
+                best = min(best, math.inf)
+                continue
+            ob = self.world.aabbs(obstacles)
+            gaps = _box_gaps(box, ob)
+            g = float(gaps.min())
             if g >= enough:
                 best = min(best, g)
                 continue
-            close = self.near(box, obstacles, enough)
-            far = [o for o in obstacles if o not in close]
-            if far:
-                best = min(best, self.gap(box, far))
+            mask = _near_mask(box, ob, enough)
+            close = [o for o, k in zip(obstacles, mask, strict=True) if k]
+            if not mask.all():  # the gap to the far boxes (the near ones are measured exactly)
+                best = min(best, float(gaps[~mask].min()))
             self.world.set_pose(name, T)
             for o in close:
                 d = self.world.distance(name, o)
@@ -594,7 +606,7 @@ class BroadPhaseValidity:
         self.scene = scene
         self.carried = [(n, np.asarray(Tb, float)) for n, Tb in carried]
         self.obstacles = list(obstacles)
-        boxes = np.array([scene.world.aabb(o) for o in self.obstacles])  # (k, 2, 3)
+        boxes = scene.world.aabbs(self.obstacles)  # (k, 2, 3)
         self.lo, self.hi = boxes[:, 0], boxes[:, 1]
         centres, halves = [], []
         for n, Tb in self.carried:
