@@ -4,10 +4,15 @@ The planner, the simulator and the checks share one ``ProductGeometry(product)``
 quantity is computed on first use, per part, and kept: the part's shape at fitted sizes, its
 exact solid and mesh, mass properties, feature frames and depths, the collision model at each
 level of detail with its measured error, and the FCL geometries (BVH trees are built once).
+
+Parts of the same shape (a product's repeated blocks, pins and plates) share one solid and
+one set of convex pieces: those are computed once per distinct shape content (every size and
+placement in the part frame, compared bit for bit) and are the same objects for each part.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Iterable, Mapping
 from functools import cached_property
@@ -68,6 +73,7 @@ class ProductGeometry:
         self.settings = settings or GeometrySettings()
         self.fcl_shapes = FclShapes()
         self._cache: dict[tuple[str, str], object] = {}
+        self._by_content: dict[tuple[object, ...], object] = {}  # see _shared
         self.timings_s: dict[str, float] = {}
 
     # -- plumbing -------------------------------------------------------------------------------
@@ -78,6 +84,13 @@ class ProductGeometry:
             self._cache[key] = make()
             self.timings_s[kind] = self.timings_s.get(kind, 0.0) + time.perf_counter() - t
         return self._cache[key]
+
+    def _shared(self, kind: str, content: object, make):
+        """``make()`` once per distinct ``content`` (a value of :func:`_content_key`)."""
+        key = (kind, content)
+        if key not in self._by_content:
+            self._by_content[key] = make()
+        return self._by_content[key]
 
     def _part(self, name: str) -> Part:
         return self.product.part(name)
@@ -121,7 +134,8 @@ class ProductGeometry:
                     return trimesh_to_manifold(self.loaded_mesh(part).mesh)
                 except ValueError as exc:
                     raise self._input_error(part, f"mesh file: {exc}") from None
-            return shape_solid(sh, self.settings.exact_tolerance_m)
+            tol = self.settings.exact_tolerance_m
+            return self._shared("solid", _content_key(sh, _NAMES), lambda: shape_solid(sh, tol))
         return self._get("solid", part, make)
 
     def _solid_without_pins(self, part: str):
@@ -129,7 +143,9 @@ class ProductGeometry:
             sh = self.shape(part)
             if not sh.pins:
                 return self.solid(part)
-            return shape_solid(sh, self.settings.exact_tolerance_m, with_pins=False)
+            tol = self.settings.exact_tolerance_m
+            return self._shared("solid_np", _content_key(sh, _NAMES),
+                                lambda: shape_solid(sh, tol, with_pins=False))
         return self._get("solid_np", part, make)
 
     def mesh(self, part: str):
@@ -193,12 +209,18 @@ class ProductGeometry:
             if level == "exact":
                 solid = None if sh.is_mesh or not sh.holes else self._solid_without_pins(part)
                 return exact_model(sh, self.settings, solid, mesh)
-            pieces, notes = convex_pieces(sh, self.hole_sides(part), self.settings, mesh,
-                                          self.holes(part) if sh.is_mesh else ())
-            if level == "convex":
-                return CollisionModel("convex", pieces, notes=notes)
-            return CollisionModel("coarse", coarse_pieces(sh, pieces, self.settings, mesh),
-                                  notes=("one convex hull (holes filled)",))
+            if level == "coarse":  # the hull of the convex pieces (computed once, cached)
+                pieces = self._raw_model(part, "convex").pieces
+                return CollisionModel("coarse", coarse_pieces(sh, pieces, self.settings, mesh),
+                                      notes=("one convex hull (holes filled)",))
+            sides = self.hole_sides(part)
+            if sh.is_mesh:
+                pieces, notes = convex_pieces(sh, sides, self.settings, mesh, self.holes(part))
+            else:  # pieces and notes name features, so equal shapes must have equal names too
+                pieces, notes = self._shared(
+                    "convex", _content_key((sh, sides), _PART_NAME),
+                    lambda: convex_pieces(sh, sides, self.settings, mesh, ()))
+            return CollisionModel("convex", pieces, notes=notes)
         return self._get(f"raw_{level}", part, make)
 
     def level_report(self, part: str, level: LevelOfDetail) -> LevelReport:
@@ -261,6 +283,34 @@ class ProductGeometry:
             except GeometryError as exc:
                 raise self._input_error(name, str(exc), key=None) from None
         return dict(self.timings_s)
+
+
+_PART_NAME = frozenset({"part", "notes"})  # PartShape fields that do not shape anything
+_NAMES = _PART_NAME | {"feature"}  # ... nor do feature names shape a solid
+
+
+def _content_key(value: object, skip: frozenset[str] = frozenset()) -> object:
+    """A hashable key, equal for values of equal content: dataclasses field by field (fields
+    named in ``skip`` left out), arrays by dtype, shape and bytes, floats by their bits (so
+    -0.0 and 0.0 differ), containers item by item."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return (type(value).__qualname__, tuple(
+            (f.name, _content_key(getattr(value, f.name), skip))
+            for f in dataclasses.fields(value) if f.name not in skip))
+    if isinstance(value, np.ndarray):
+        return ("ndarray", value.dtype.str, value.shape, value.tobytes())
+    if isinstance(value, float):
+        return ("float", float(value).hex())
+    if isinstance(value, np.generic):
+        return ("numpy", value.dtype.str, value.tobytes())
+    if isinstance(value, tuple | list):
+        return (type(value).__name__, tuple(_content_key(v, skip) for v in value))
+    if isinstance(value, dict):
+        return ("dict", tuple((_content_key(k, skip), _content_key(v, skip))
+                              for k, v in value.items()))
+    if value is None or isinstance(value, str | int):  # bool is an int
+        return (type(value).__name__, value)
+    raise TypeError(f"no content key for {type(value).__name__}")
 
 
 __all__ = ["ProductGeometry"]

@@ -14,7 +14,8 @@ to ``[min_step_m, max_step_m]``, so a pin cannot skip across its hole wall betwe
 
 By default the convex pieces are built without the error measurement that
 :meth:`ProductGeometry.collision_model` runs (about 1 s per part; the sweeps need the
-pieces, not the report), from the public pieces of :mod:`asmplan.parts.lod`; pass
+pieces, not the report): the pieces ``ProductGeometry.collision_model(part, "convex",
+measured=False)`` caches, so the motion planner reuses them and their FCL geometry; pass
 ``measured=True`` to use (and cache) the measured models instead.
 
 Sweeps start with a broad phase of their own: a part is swept only against the parts whose
@@ -27,7 +28,6 @@ import numpy as np
 
 from ..knowledge.model import Product
 from ..parts.collision import CollisionWorld
-from ..parts.lod import convex_pieces
 from ..parts.models import ProductGeometry
 from ..parts.pieces import CollisionModel
 
@@ -35,11 +35,8 @@ from ..parts.pieces import CollisionModel
 def unmeasured_convex_model(geometry: ProductGeometry, part: str) -> CollisionModel:
     """``part``'s convex-level model as :class:`ProductGeometry` builds it, without the
     error measurement (``hausdorff_m`` and ``hole_clearance_error_m`` left at 0)."""
-    shape = geometry.shape(part)
-    mesh = geometry.mesh(part) if shape.is_mesh else None
-    pieces, notes = convex_pieces(shape, geometry.hole_sides(part), geometry.settings, mesh,
-                                  geometry.holes(part) if shape.is_mesh else ())
-    return CollisionModel("convex", pieces, notes=(*notes, "error not measured"))
+    raw = geometry.collision_model(part, "convex", measured=False)  # the same pieces, cached
+    return CollisionModel("convex", raw.pieces, notes=(*raw.notes, "error not measured"))
 
 
 class FclOracle:
