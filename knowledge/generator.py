@@ -4,7 +4,8 @@ A generated product is a fixtured base plate carrying a grid of cells. Each cell
 stack of 1-3 blocks, each block pinned into the one below (two pins going down, -z; fit
 H7/g6 unless ``fit`` says otherwise).
 Some cells add a side plate pinned horizontally into the top block's +x or +y face (inserted
-along -x or -y), and some a cover on the top block: a flat cover pinned into it (-z) or,
+along -x or -y; the plate stands on the base, 0.2 mm above it when seated, so that a loose
+pin does not leave it hanging), and some a cover on the top block: a flat cover pinned into it (-z) or,
 when the cell has a side plate, an L-shaped cover that rests on the block with a flange
 hanging in front of the side plate. The flange blocks the side plate's only way in, so "side
 plate before cover" is a precedence that only the geometry reveals (like the cover of the
@@ -34,7 +35,8 @@ PITCH_MM = 100.0
 BASE_T_MM = 15.0
 BLOCK_MM = (40.0, 40.0, 20.0)
 PIN_D_MM, PIN_L_MM, PIN_X_MM = 6.0, 6.0, 12.0
-SIDE_T_MM, SIDE_W_MM, SIDE_H_MM = 6.0, 60.0, 20.0
+SIDE_T_MM, SIDE_W_MM = 6.0, 60.0
+SIDE_GAP_MM = 0.2
 SIDE_PIN_D_MM = 5.0
 COVER_T_MM = 5.0
 FLANGE_T_MM, FLANGE_GAP_MM, FLANGE_DROP_MM = 5.0, 4.0, 19.0
@@ -158,18 +160,23 @@ def generate_product(n_parts: int, seed: int, *, fit: str | float = "H7/g6") -> 
             e = np.eye(3)[ax]
             side_name = f"c{ci}_side"
             face = (bx if ax == 0 else by) / 2
-            size = [SIDE_T_MM, SIDE_W_MM, SIDE_H_MM] if ax == 0 else [SIDE_W_MM, SIDE_T_MM, SIDE_H_MM]
+            # the plate stands on the base (SIDE_GAP_MM above it when seated, so the pin, not
+            # the base, locates it) up to the top block's top; its pin at the block's centre
+            height = top_z - BASE_T_MM - SIDE_GAP_MM
+            size = [SIDE_T_MM, SIDE_W_MM, height] if ax == 0 else [SIDE_W_MM, SIDE_T_MM, height]
             centre = top_centre + e * (face + SIDE_T_MM / 2)
+            centre[2] = BASE_T_MM + SIDE_GAP_MM + height / 2
+            pin_at = -e * SIDE_T_MM / 2 + np.array([0.0, 0.0, top_centre[2] - centre[2]])
             assert top_holes is not None
             top_holes.append({"name": "hs", "at": [_r(v) for v in e * face], "axis": e.tolist(),
                               "diameter": SIDE_PIN_D_MM, "depth": PIN_L_MM + 2.0, "chamfer": 0.4})
             parts.append({"name": side_name, "material": "steel",
                           "geometry": {"type": "box", "size": size,
-                                       "pins": [{"name": "p", "at": [_r(v) for v in -e * SIDE_T_MM / 2],
+                                       "pins": [{"name": "p", "at": [_r(v) for v in pin_at],
                                                  "axis": (-e).tolist(), "diameter": SIDE_PIN_D_MM,
                                                  "length": PIN_L_MM, "chamfer": 0.4}]},
                           "pose": {"xyz": [_r(v) for v in centre]},
-                          "start": start(SIDE_H_MM)})
+                          "start": start(height)})
             mates.append({"name": f"{side_name}_pin", "pin": f"{side_name}.p",
                           "hole": f"{top_name}.hs", **fit_spec})
         if cell["cover"]:

@@ -729,6 +729,9 @@ class BulletWorld:
         for i, spec in enumerate(links):
             kw: dict[str, float | list[float]] = {
                 "lateralFriction": float(spec.friction),
+                # anchors on the links (the gripper's fingers): every contact with them holds
+                # its anchor point while it sticks (Fidelity.friction_anchor)
+                "frictionAnchor": int(self.fidelity.friction_anchor),
                 "spinningFriction": float(spec.spinning_friction),
                 "linearDamping": 0.0,
                 "angularDamping": 0.0,

@@ -13,10 +13,11 @@ Roles
 ``mate``
     A part already in place that the held part mates with (a pin of one in a hole of the
     other). Dynamic unless fixtured, so that the insertion pushes a real body (its reaction,
-    friction and seating are physical, not those of an immovable wall).
+    friction and seating are physical, not those of an immovable wall); static when the
+    fidelity's ``dynamic_partners`` is off (FAST).
 ``touching``
     A part already in place that the held part touches when seated (distance at most
-    :attr:`SceneSettings.touch_tolerance_m`), without a mate. Dynamic unless fixtured.
+    :attr:`SceneSettings.touch_tolerance_m`), without a mate. Dynamic or static as a mate.
 ``support``
     A part in place that touches a dynamic ``mate``/``touching`` body: what it rests on. Static
     (one level of dynamics: the bodies under the partner do not move).
@@ -38,10 +39,19 @@ Roles
 Fixtured parts are static (mass 0: the fixture holds them); the fixture itself is not
 modelled as a body. Everything else is left out.
 
+Features that stay empty
+------------------------
+A hole that nothing enters during the step is modelled solid (:func:`empty_holes`): a hole
+of a part waiting at its start pose, or one whose mating pin belongs to a part placed in a
+later step. Its ring of convex pieces and their contacts leave the scene (a block whose
+holes all wait becomes its exact box); holes no mate names are kept. Mass properties are
+always those of the real part.
+
 Whole product (``cull=False``, the baseline culling is measured against): every part of the
 product is in the scene as the simulator would model it without selecting anything: parts
 already placed at their assembled poses as DYNAMIC bodies resting on each other (pins in
-holes), parts not yet placed at their start poses as DYNAMIC bodies on the table or on their
+holes; static when the fidelity's ``dynamic_partners`` is off, as the partners of a culled
+scene), parts not yet placed at their start poses as DYNAMIC bodies on the table or on their
 own tray nest, fixtured parts static; all with their features (the fidelity's level, raised
 from "coarse" to "convex" like the required bodies). The parts the step needs keep the roles
 above; the others get the role ``obstacle`` (dynamic unless fixtured) and nests ``nest``.
