@@ -94,15 +94,15 @@ class Fidelity:
     friction_anchor : bool
         PyBullet's friction anchors (``changeDynamics(frictionAnchor=1)``) on the links of
         articulated bodies, i.e. the gripper's fingers: a contact with a pad is held at its
-        anchor point while it sticks instead of drifting a little in every solver step. (On
-        every body the anchors also stick pins in holes: a seating peg then needed 53 N
-        instead of < 20 N, so parts do not get them.) Without them a 50 g POM block held at 2.2x the Coulomb force crept
+        anchor point while it sticks instead of drifting a little in every solver step.
+        FAST: True. Without them a 50 g POM block held at 2.2x the Coulomb force crept
         1.1-5.9 mm down the pads over a 5-12 s FAST cycle (generated products); with them
-        0.01-0.19 mm. The slip threshold against m (g + a) / (2 mu) is unchanged (-0.20 %
-        FAST, +0.39 % BALANCED) and the seed clamp-force error falls (0.37 -> 0.03 mN FAST).
-        FAST only: at BALANCED the pads crept little without anchors, and with them a part
-        seated by a position-controlled gripper got the pads' full friction as extra seating
-        force (peg_in_hole: 62 N against its 50 N limit; a 4.3 kg bar set down: 53 N).
+        < 0.01 mm. The slip threshold against m (g + a) / (2 mu) is unchanged (-0.20 %) and
+        the seed clamp-force error falls (0.37 -> 0.16 mN). BALANCED and ACCURATE: False;
+        their pads crept little without anchors, and with them a part seated by the
+        position-controlled gripper got the pads' full friction as extra seating force
+        (peg_in_hole at BALANCED: 62 N against its 50 N limit). Parts never get anchors: on
+        every body they also stick pins in their holes.
     """
 
     name: str
