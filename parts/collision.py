@@ -461,12 +461,14 @@ class CollisionWorld:
         lo_b, hi_b = eb.aabb[None, :, 0], eb.aabb[None, :, 1]
         gap = np.maximum(0.0, np.maximum(lo_b - hi_a, lo_a - hi_b))
         bound = np.sqrt((gap**2).sum(axis=2))  # AABB distance: a lower bound per pair
-        order = np.argsort(bound, axis=None)
+        order = np.argsort(bound, axis=None).tolist()
+        flat_bound = bound.ravel().tolist()
+        n_b = bound.shape[1]
         best = math.inf
         deepest = 0.0
         for flat in order:
-            i, j = np.unravel_index(flat, bound.shape)
-            if bound[i, j] >= best:
+            i, j = divmod(flat, n_b)
+            if flat_bound[flat] >= best:
                 break
             o1, o2 = ea.obj(i), eb.obj(j)
             d = fcl.distance(o1, o2, _REQ_DIST, fcl.DistanceResult()) / _K

@@ -102,6 +102,13 @@ class GraspSurface:
                    com_m=np.asarray(com_m, float), kind=kind)
 
 
+def _clip(x: float, lo: float, hi: float) -> float:
+    """``float(np.clip(x, lo, hi))`` for one number (same result, also for ``lo > hi`` and
+    signed zeros), without numpy's per-call cost."""
+    m = lo if lo > x else x
+    return float(hi if hi < m else m)
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
     return np.asarray(v, float) / float(np.linalg.norm(v))
 
@@ -272,10 +279,10 @@ def iter_grasps(
             zlo, zhi = float(XYZ[2].min()), float(XYZ[2].max())
             v_lo = zlo - L / 2 + min_overlap_m
             v_hi = zhi + L / 2 - min_overlap_m
-            vs = sorted({round(float(np.clip(k * L / 6, v_lo, v_hi)), 9) for k in range(-6, 7)},
+            vs = sorted({round(_clip(k * L / 6, v_lo, v_hi), 9) for k in range(-6, 7)},
                         key=lambda v: (abs(v), v))
             if xhi - xlo > W:  # the part is wider than a finger: slide along it too
-                us = sorted({round(float(np.clip(k * W / 2, xlo + W / 2, xhi - W / 2)), 9)
+                us = sorted({round(_clip(k * W / 2, xlo + W / 2, xhi - W / 2), 9)
                              for k in range(-2, 3)}, key=lambda u: (abs(u), u))
             else:  # narrower: centred, or sticking out on one side only (an edge 1 mm in)
                 us = sorted({0.0, round(xlo + _EDGE_INSET_M + W / 2, 9),

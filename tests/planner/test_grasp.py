@@ -129,3 +129,15 @@ def test_lazy_order_equals_full_ranking_and_is_deterministic():
                              down_final_part=np.array([1.0, 0.0, 0.0])))
     assert [g.T_part_gripper.tobytes() for g in full] == [g.T_part_gripper.tobytes()
                                                           for g in again]
+
+
+def test_scalar_clip_matches_numpy_bit_for_bit():
+    """The grasp search clips its offsets with a scalar helper: same bits as np.clip,
+    including signed zeros, infinities and an empty range (lo > hi)."""
+    import itertools
+
+    from asmplan.planner.grasp import _clip
+
+    values = [-0.0, 0.0, 1.0, -1.0, 0.5, 2.0, 1e-300, -1e-300, math.inf, -math.inf]
+    for x, lo, hi in itertools.product(values, repeat=3):
+        assert _clip(x, lo, hi).hex() == float(np.clip(x, lo, hi)).hex(), (x, lo, hi)
