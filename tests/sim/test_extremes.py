@@ -184,3 +184,22 @@ def test_a_10_s_hold_stays_put():
     assert record.slip_m[held].max() - record.slip_m[held].min() < 20e-6  # no creep over 10 s
     assert record.speed_mps[held][-100:].max() < 1e-4
     assert outcome.clamp_force_mae_N < 1e-3
+
+
+def test_fast_pads_hold_a_light_low_friction_block_without_creep():
+    # 50 g block, friction 0.3 x 1.0, held at 2.2x the Coulomb minimum for 8 s in the air: the
+    # iterative solver lets a sticking contact drift a little every step at FAST's 1/240 s
+    # unless the pads carry friction anchors (Fidelity.friction_anchor)
+    part = BoxPart(size_m=(0.04, 0.04, 0.02), mass_kg=0.05, friction=0.3)
+    force = 2.2 * part.mass_kg * G / (2 * 0.3)
+    creep = {}
+    for anchor in (True, False):
+        with BulletWorld(FAST.replace(friction_anchor=anchor)) as world:
+            body, gripper, T0 = add_box_and_gripper(world, part, clearance_m=0.001)
+            record, outcome = _pick_and_hold(world, gripper, body, T0, force, 0.03, 8.0)
+        held = record.phase_mask("translate")
+        creep[anchor] = record.slip_m[held].max() - record.slip_m[held].min()
+        assert not outcome.dropped and not outcome.nan_detected
+    assert FAST.friction_anchor and not BALANCED.friction_anchor
+    assert creep[True] < 10e-6  # measured 2e-11 m
+    assert creep[False] > 1e-3  # measured 3.1 mm: why FAST has the anchors
