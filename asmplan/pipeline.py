@@ -28,7 +28,13 @@ from .planner.motion import plan_product, ranked_sequences
 from .planner.plan import Plan, PlannerSettings
 from .planner.sequence import SequencePlan, SequenceSettings, plan_sequence
 from .sim.fidelity import Fidelity, preset
-from .sim.simulate import PlanResults, clearance_warnings, simulate_plan
+from .sim.simulate import (
+    PipelinedSimulation,
+    PlanResults,
+    clearance_warnings,
+    resolve_workers,
+    simulate_plan,
+)
 
 Progress = Callable[[str, int, int, str], None]
 """``progress(stage, done, total, label)``: stage is "sequence", "plan", "simulate" or "report"."""
@@ -44,7 +50,9 @@ class RunSettings:
     cull: bool = True
     simulate: bool = True
     workers: int | None = None
-    """Processes that simulate steps (None: one per usable core; 1 inside your own pool)."""
+    """Processes that simulate steps (None: see ``simulate_plan``; 1 inside your own pool).
+    With more than one, each step is simulated while the next ones are planned, and
+    ``timings_s["simulate"]`` is the time simulation took after planning ended."""
 
     @property
     def fidelity_preset(self) -> Fidelity:
@@ -101,32 +109,49 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
     t1 = time.perf_counter()
     result.timings_s["sequence"] = t1 - t0
     tick("sequence", 1, 1, "")
-    if result.sequence is not None:
-        from .planner.motion import part_data
+    n_moving = sum(not product.is_fixtured(p) for p in product.part_names)
+    workers = resolve_workers(settings.workers, n_moving) if settings.simulate else 1
+    # with several worker processes, each step is simulated as soon as it is planned
+    pipe = (PipelinedSimulation(product, geometry, fidelity, workers=workers, cull=settings.cull)
+            if workers > 1 and result.sequence is not None else None)
 
-        def on_step(i: int, n: int, part: str, status: str) -> None:
-            if status == "done":
-                tick("plan", i + 1, n, part)
+    def sim_progress(i: int, n: int, part: str, status: str) -> None:
+        if status == "done":
+            tick("simulate", i + 1, n, part)
 
-        try:
-            planned = plan_product(product, settings.planner,
-                                   sequences=ranked_sequences(product, result.sequence),
-                                   parts=part_data(product, settings.planner, geometry),
-                                   progress=on_step)
-            result.plan = planned.plan
-            result.warnings.extend(n for s in planned.plan.steps for n in s.notes)
-        except PlanningError as exc:
-            result.failure, result.failure_evidence = str(exc), exc.evidence()
-    t2 = time.perf_counter()
-    result.timings_s["plan"] = t2 - t1
-    if result.plan is not None and settings.simulate:
-        result.warnings.extend(clearance_warnings(product, fidelity))
-        result.results = simulate_plan(
-            result.plan, product, geometry, fidelity, cull=settings.cull,
-            workers=settings.workers,
-            progress=lambda i, n, part, status: status == "done" and tick("simulate", i + 1, n, part))
-        # each step's own warnings stay with the step (results.json, the report's step section);
-        # the run-level list holds the plan's notes and the fits the preset cannot resolve
+    try:
+        if result.sequence is not None:
+            from .planner.motion import part_data
+
+            def on_step(i: int, n: int, part: str, status: str) -> None:
+                if status == "done":
+                    tick("plan", i + 1, n, part)
+
+            try:
+                planned = plan_product(product, settings.planner,
+                                       sequences=ranked_sequences(product, result.sequence),
+                                       parts=part_data(product, settings.planner, geometry),
+                                       progress=on_step,
+                                       on_step=None if pipe is None else pipe.on_step)
+                result.plan = planned.plan
+                result.warnings.extend(n for s in planned.plan.steps for n in s.notes)
+            except PlanningError as exc:
+                result.failure, result.failure_evidence = str(exc), exc.evidence()
+        t2 = time.perf_counter()
+        result.timings_s["plan"] = t2 - t1
+        if result.plan is not None and settings.simulate:
+            result.warnings.extend(clearance_warnings(product, fidelity))
+            if pipe is not None:
+                result.results = pipe.results(result.plan, progress=sim_progress)
+            else:
+                result.results = simulate_plan(result.plan, product, geometry, fidelity,
+                                               cull=settings.cull, workers=1,
+                                               progress=sim_progress)
+            # each step's own warnings stay with the step (results.json, the report's step
+            # section); the run-level list holds the plan's notes and the unresolved fits
+    finally:
+        if pipe is not None:
+            pipe.close()
     result.timings_s["simulate"] = time.perf_counter() - t2
     result.warnings = list(dict.fromkeys(result.warnings))  # once each, in order
     return result

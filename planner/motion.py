@@ -1242,6 +1242,7 @@ def initial_layout(product: Product, parts: dict[str, PartData]
 # Whole product
 # ---------------------------------------------------------------------------------------------
 ProgressFn = Callable[[int, int, str, str], None]
+StepFn = Callable[[tuple[str, ...], Step, dict[str, np.ndarray]], None]
 
 
 @dataclass(frozen=True, eq=False)
@@ -1279,7 +1280,8 @@ def plan_product(product: Product, settings: PlannerSettings | None = None, *,
                  insertions: dict[str, np.ndarray] | None = None,
                  sequences: Sequence[SequenceChoice] | None = None,
                  parts: dict[str, PartData] | None = None, progress: ProgressFn | None = None,
-                 direct_insertion: bool = False) -> PlanResult:
+                 direct_insertion: bool = False,
+                 on_step: StepFn | None = None) -> PlanResult:
     """Plan every step of ``product``.
 
     The order is ``sequence`` when given; otherwise the ranked ``sequences`` (default: the
@@ -1305,6 +1307,11 @@ def plan_product(product: Product, settings: PlannerSettings | None = None, *,
         ``progress(step_index, n_steps, part, status)`` with status "start" or "done".
     direct_insertion : bool
         Benchmark baseline only (see :class:`MotionPlanner`).
+    on_step : callable, optional
+        ``on_step(order, step, start_poses)`` after each step is planned: the order being
+        tried (tuple of part names), the new :class:`Step`, and the start pose (4, 4) of every
+        part. Lets a caller start simulating a step while later ones are planned; when an
+        order fails and the next is tried, the steps already reported for it are void.
 
     Raises
     ------
@@ -1326,7 +1333,7 @@ def plan_product(product: Product, settings: PlannerSettings | None = None, *,
     for choice in choices:
         try:
             plan, times = _plan_order(product, settings, choice, parts, progress,
-                                      direct_insertion, len(failures))
+                                      direct_insertion, len(failures), on_step)
         except PlanningError as exc:
             failures.append((choice, exc))
             continue
@@ -1341,7 +1348,8 @@ def plan_product(product: Product, settings: PlannerSettings | None = None, *,
 
 def _plan_order(product: Product, settings: PlannerSettings, choice: SequenceChoice,
                 parts: dict[str, PartData], progress: ProgressFn | None,
-                direct_insertion: bool, failed_before: int) -> tuple[Plan, tuple[StepTiming, ...]]:
+                direct_insertion: bool, failed_before: int,
+                on_step: StepFn | None = None) -> tuple[Plan, tuple[StepTiming, ...]]:
     sequence = list(choice.order)
     if sorted(sequence) != sorted(product.part_names):
         raise ValueError(f"sequence: expected every part once ({', '.join(product.part_names)}), "
@@ -1355,6 +1363,8 @@ def _plan_order(product: Product, settings: PlannerSettings, choice: SequenceCho
         step, timing = planner.plan_step(k, name, choice.insertions.get(name))
         steps.append(step)
         times.append(timing)
+        if on_step is not None:
+            on_step(tuple(sequence), step, planner.start_poses)
         if progress is not None:
             progress(k, len(sequence), name, "done")
     note = choice.note

@@ -599,14 +599,30 @@ def select_scene(plan: Plan, index: int, product: Product, geometry: Any, fideli
     -------
     StepScene
     """
-    s = settings or SceneSettings()
     check_plan_product(plan, product)
-    step = plan.steps[index]
+    return step_scene(plan.steps[index], part_poses(plan, index), product, geometry, fidelity,
+                      settings, cull=cull)
+
+
+Layout = tuple[dict[str, np.ndarray], frozenset[str]]
+"""Pose (4, 4) of every part while a step runs and the set of parts in place
+(:func:`part_poses`)."""
+
+
+def step_scene(step: Step, layout: Layout, product: Product, geometry: Any, fidelity: Fidelity,
+               settings: SceneSettings | None = None, *, cull: bool = True) -> StepScene:
+    """:func:`select_scene` for one ``step`` given where every part is (``layout``)."""
+    s = settings or SceneSettings()
+    index = step.index
     if step.kind == "fixture" or step.trajectory is None or step.grasp is None:
         raise ValueError(f"step {index} ({step.part}): expected a step that moves its part, "
                          f"found kind {step.kind!r}")
     held = step.part
-    poses, placed = part_poses(plan, index)
+    poses, placed = layout
+    missing = set(product.part_names) - set(poses)
+    if missing:
+        raise ValueError(f"layout: expected a pose for every part, found none for "
+                         f"{sorted(missing)}")
     level = fidelity.geometry_lod
     notes: list[str] = []
     bodies: list[SceneBody] = []

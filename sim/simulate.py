@@ -54,12 +54,14 @@ from asmplan.sim.fidelity import BALANCED, PRESETS, Fidelity
 from asmplan.sim.gripper import CoupledGripper
 from asmplan.sim.records import StepOutcome, StepRecord, SuccessCriteria
 from asmplan.sim.scene import (
+    Layout,
     SceneSettings,
     StepScene,
     build_scene,
     check_plan_product,
     gripper_spec,
-    select_scene,
+    part_poses,
+    step_scene,
 )
 
 RESULTS_FORMAT = "asmplan-results"
@@ -384,13 +386,24 @@ def simulate_step(plan: Plan, index: int, product: Product, geometry: Any,
                   settings: SceneSettings | None = None,
                   criteria: SuccessCriteria | None = None) -> StepResult:
     """Simulate step ``index`` of ``plan`` in a fresh world (see the module docstring)."""
-    step = plan.steps[index]
+    check_plan_product(plan, product)
+    return simulate_placed_step(plan.steps[index], part_poses(plan, index), product, geometry,
+                                fidelity, cull=cull, settings=settings, criteria=criteria)
+
+
+def simulate_placed_step(step: Step, layout: Layout, product: Product, geometry: Any,
+                         fidelity: Fidelity = BALANCED, *, cull: bool = True,
+                         settings: SceneSettings | None = None,
+                         criteria: SuccessCriteria | None = None) -> StepResult:
+    """:func:`simulate_step` for one ``step`` given where every part is (``layout``: poses
+    and the parts in place, :func:`asmplan.sim.scene.part_poses`)."""
+    index = step.index
     if step.kind == "fixture" or step.trajectory is None or step.grasp is None:
         return StepResult(index, step.part, step.kind, None, None, None,
                           ("in place from the start (held by a fixture): not simulated",))
     crit = criteria or criteria_for(product)
     t0 = time.perf_counter()
-    scene = select_scene(plan, index, product, geometry, fidelity, settings, cull=cull)
+    scene = step_scene(step, layout, product, geometry, fidelity, settings, cull=cull)
     warns = step_warnings(scene, product, step, geometry, fidelity)
     traj = step.trajectory
     f_max = float(np.max(traj.clamp_force_N))
@@ -437,6 +450,21 @@ def default_workers() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not Linux
         return max(1, os.cpu_count() or 1)
+
+
+def resolve_workers(workers: int | None, n_steps: int) -> int:
+    """Processes to simulate ``n_steps`` moving steps in (see :func:`simulate_plan`); 1 when
+    worker processes cannot be forked here."""
+    if workers is not None and int(workers) < 1:
+        raise ValueError(f"workers: expected >= 1 or None, found {workers}")
+    if "fork" not in multiprocessing.get_all_start_methods():
+        return 1
+    if workers is None:
+        # up to twice as many steps as cores all run at once: 3 equal steps on 2 cores end
+        # after 1.5 step times shared, against 2 in two rounds of 2
+        cores = default_workers()
+        return max(1, n_steps if n_steps <= 2 * cores else cores)
+    return max(1, min(int(workers), n_steps))
 
 
 def _crashed(plan: Plan, k: int, exc: BaseException) -> StepResult:
@@ -538,17 +566,8 @@ def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
     for k in todo:
         if not 0 <= k < len(plan.steps):
             raise IndexError(f"step {k}: expected 0..{len(plan.steps) - 1}")
-    if workers is not None and int(workers) < 1:
-        raise ValueError(f"workers: expected >= 1 or None, found {workers}")
-    n_moving = sum(plan.steps[k].trajectory is not None for k in todo)
-    if workers is None:
-        # up to twice as many steps as cores all run at once: 3 equal steps on 2 cores end
-        # after 1.5 step times shared, against 2 in two rounds of 2
-        cores = default_workers()
-        n_workers = n_moving if n_moving <= 2 * cores else cores
-    else:
-        n_workers = min(int(workers), n_moving)
-    if n_workers > 1 and "fork" in multiprocessing.get_all_start_methods():
+    n_workers = resolve_workers(workers, sum(plan.steps[k].trajectory is not None for k in todo))
+    if n_workers > 1:
         job = (plan, product, geometry, fidelity, cull, s, criteria)
         results = _simulate_parallel(plan, todo, n_workers, job, progress)
     else:
@@ -564,3 +583,161 @@ def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
                        plan_sequence=tuple(plan.sequence), fidelity=fidelity, culled=cull,
                        scene_settings=s, steps=tuple(results),
                        warnings=clearance_warnings(product, fidelity))
+
+
+# ---------------------------------------------------------------------------------------------
+# Simulating while planning
+# ---------------------------------------------------------------------------------------------
+_PIPELINE_JOB: tuple[Any, ...] | None = None
+"""What :class:`PipelinedSimulation` hands to its forked worker processes."""
+
+
+def _simulate_planned(step: Step, layout: Layout) -> StepResult:
+    assert _PIPELINE_JOB is not None, "simulate worker started without a job"
+    product, geometry, fidelity, cull, settings, criteria = _PIPELINE_JOB
+    return simulate_placed_step(step, layout, product, geometry, fidelity, cull=cull,
+                                settings=settings, criteria=criteria)
+
+
+class PipelinedSimulation:
+    """Simulate each step in a forked worker process as soon as the planner has planned it.
+
+    Pass :meth:`on_step` to :func:`asmplan.planner.motion.plan_product` (``on_step=``) and
+    call :meth:`results` with the finished plan. A step's scene needs of the other steps only
+    where their parts are (placed parts at their final poses, the others at their start
+    poses, which the planner fixes before planning), so the worker gets the step and that
+    layout; the result is the same as :func:`simulate_plan` on the whole plan
+    (``tests/test_run.py``). When the planner gives
+    up an order and tries the next, the steps of the old order are cancelled or ignored.
+    Use as a context manager (the pool is shut down on exit).
+    """
+
+    def __init__(self, product: Product, geometry: Any, fidelity: Fidelity, *, workers: int,
+                 cull: bool = True, settings: SceneSettings | None = None,
+                 criteria: SuccessCriteria | None = None) -> None:
+        if int(workers) < 2:
+            raise ValueError(f"workers: expected >= 2 (else simulate after planning), "
+                             f"found {workers}")
+        self.product, self.geometry, self.fidelity = product, geometry, fidelity
+        self.cull, self.settings, self.criteria = cull, settings or SceneSettings(), criteria
+        self.workers = int(workers)
+        self._pool: ProcessPoolExecutor | None = None
+        self._futures: dict[tuple[tuple[str, ...], int], Any] = {}
+        # while the planner runs it keeps one core: at most cores - 1 steps run at once, the
+        # others wait here (an abandoned order's waiting steps are dropped, never run)
+        self.planning_workers = max(1, min(self.workers, default_workers() - 1))
+        self._waiting: dict[tuple[tuple[str, ...], int], tuple[Step, Layout]] = {}
+        self._order: tuple[str, ...] | None = None
+        self._planned: dict[int, Step] = {}  # steps of the current order so far
+
+    def __enter__(self) -> PipelinedSimulation:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Stop the workers (pending steps are cancelled)."""
+        global _PIPELINE_JOB
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+        self._futures.clear()
+        _PIPELINE_JOB = None
+
+    def on_step(self, order: tuple[str, ...], step: Step,
+                start_poses: dict[str, np.ndarray]) -> None:
+        """The planner planned ``step`` of ``order``: start simulating it."""
+        order = tuple(order)
+        for key in [k for k in self._futures if k[0] != order]:  # an abandoned order
+            self._futures.pop(key).cancel()
+        for key in [k for k in self._waiting if k[0] != order]:
+            del self._waiting[key]
+        if self._order != order:
+            self._order, self._planned = order, {}
+        self._planned[step.index] = step
+        if step.trajectory is None:
+            return
+        # what part_poses(plan, index) gives on the finished plan: the parts of the earlier
+        # steps and the fixtured ones at their final poses, the others at their start poses
+        placed = {self._planned[i].part for i in range(step.index)}
+        placed |= {p for p in order if self.product.is_fixtured(p)}
+        placed.discard(step.part)
+        poses = {}
+        for i, part in enumerate(order):
+            done = self._planned.get(i) if i <= step.index else None
+            if done is not None:
+                poses[part] = done.T_world_final if part in placed else done.T_world_start
+            else:
+                poses[part] = (self.product.T_world_assembled(part) if part in placed
+                               else start_poses[part])
+        self._waiting[(order, step.index)] = (step, (poses, frozenset(placed)))
+        self._submit_waiting(self.planning_workers)
+
+    def _submit_waiting(self, limit: int | None) -> None:
+        """Start waiting steps, in planning order, while fewer than ``limit`` run (None: all)."""
+        while self._waiting:
+            running = sum(not f.done() for f in self._futures.values())
+            if limit is not None and running >= limit:
+                return
+            key = next(iter(self._waiting))
+            step, layout = self._waiting.pop(key)
+            self._futures[key] = self._ensure_pool().submit(_simulate_planned, step, layout)
+
+    def results(self, plan: Plan, progress: ProgressFn | None = None) -> PlanResults:
+        """The results of every step of the finished ``plan`` (waits for the workers)."""
+        global _FORKED_JOB
+        check_plan_product(plan, self.product)
+        order = tuple(plan.sequence)
+        self._submit_waiting(None)  # planning is over: every core simulates
+        done: dict[int, StepResult] = {}
+        n = len(plan.steps)
+        for k, step in enumerate(plan.steps):
+            future = self._futures.get((order, k))
+            if future is None:
+                if step.trajectory is not None:  # not reported by the planner: simulate now
+                    future = self._ensure_pool().submit(_simulate_planned, step,
+                                                        part_poses(plan, k))
+                else:
+                    done[k] = simulate_step(plan, k, self.product, self.geometry, self.fidelity,
+                                            cull=self.cull, settings=self.settings,
+                                            criteria=self.criteria)
+            if k not in done:
+                try:
+                    done[k] = future.result()
+                except BrokenProcessPool:
+                    continue
+            if progress is not None:
+                progress(k, n, step.part, "done")
+        missing = [k for k in range(n) if k not in done]
+        if missing:  # a worker died: each unfinished step once more, alone
+            self.close()
+            ctx = multiprocessing.get_context("fork")
+            _FORKED_JOB = (plan, self.product, self.geometry, self.fidelity, self.cull,
+                           self.settings, self.criteria)
+            try:
+                for k in missing:
+                    try:
+                        with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
+                            done[k] = pool.submit(_simulate_forked, k).result()
+                    except BrokenProcessPool as exc:
+                        done[k] = _crashed(plan, k, exc)
+                    if progress is not None:
+                        progress(k, n, plan.steps[k].part, "done")
+            finally:
+                _FORKED_JOB = None
+        return PlanResults(product=self.product.name, source=plan.source,
+                           plan_sequence=tuple(plan.sequence), fidelity=self.fidelity,
+                           culled=self.cull, scene_settings=self.settings,
+                           steps=tuple(done[k] for k in range(n)),
+                           warnings=clearance_warnings(self.product, self.fidelity))
+
+    def _ensure_pool(self) -> ProcessPoolExecutor:
+        """The worker pool, forked on first use (the workers inherit the job)."""
+        global _PIPELINE_JOB
+        if self._pool is None:
+            _PIPELINE_JOB = (self.product, self.geometry, self.fidelity, self.cull,
+                             self.settings, self.criteria)
+            self._pool = ProcessPoolExecutor(max_workers=self.workers,
+                                             mp_context=multiprocessing.get_context("fork"))
+        return self._pool
