@@ -936,9 +936,11 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
                 f"`asmplan.knowledge.generator.generate_product(n, seed=0, fit={SCALING_FIT_MM})` "
                 f"(every pin {SCALING_FIT_MM} mm diametral clearance, which FAST resolves), written "
                 "to YAML, then the whole job (`asmplan.pipeline.run_product` at FAST, the preset the "
-                "scaling targets name, steps simulated in one process per core, and "
-                "`write_outputs` with the HTML report), one run per size. validation = load and "
-                "validate the YAML; sequence includes building the part geometry; a size that does "
+                "scaling targets name, each step simulated in a worker process while the next are "
+                "planned, and `write_outputs` with the HTML report), one run per size. validation = "
+                "load and "
+                "validate the YAML; sequence includes building the part geometry; simulate is the "
+                "time simulation took after planning ended; a size that does "
                 "not plan is shown with its failure reason.", "",
                 format_scaling(rep.scaling)]
     if rep.culling is not None:
