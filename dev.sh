@@ -61,6 +61,10 @@ setup() {
         "$venv/bin/python" -m pip install -q -c constraints.txt -e ".[dev]"
         echo "$want" > "$stamp"
     fi
+    # The package is installed editable, so pip compiles no bytecode for it, and where
+    # PYTHONDONTWRITEBYTECODE is set Python never caches it: compile it here (each `asmplan`
+    # run then saves ~0.1 s of compiling its own modules; unchanged files are skipped).
+    "$venv/bin/python" -m compileall -q knowledge parts planner sim report asmplan examples >/dev/null
 }
 
 cmd=${1:-run}
