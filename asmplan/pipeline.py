@@ -164,8 +164,6 @@ def write_outputs(result: RunResult, outdir: str | Path, *, report: bool = True,
     The folder is built beside ``outdir`` and swapped in at the end: a crash or Ctrl-C leaves
     the previous ``outdir`` untouched.
     """
-    from .report.html import ReportInputs, write_report
-
     outdir = Path(outdir)
     t0 = time.perf_counter()
     with staged_directory(outdir) as stage:
@@ -180,6 +178,8 @@ def write_outputs(result: RunResult, outdir: str | Path, *, report: bool = True,
                    "warnings": result.warnings, "fidelity": result.fidelity.name}
         atomic_write_json(stage / "summary.json", summary)
         if report:
+            from .report.html import ReportInputs, write_report
+
             if progress is not None:
                 progress("report", 0, 1, "")
             write_report(ReportInputs(result.product, result.geometry, result.sequence, result.plan,
