@@ -467,6 +467,26 @@ def resolve_workers(workers: int | None, n_steps: int) -> int:
     return max(1, min(int(workers), n_steps))
 
 
+def _die_with_parent(parent_pid: int) -> None:
+    """Worker initializer: the kernel kills this worker when the process that forked it dies
+    (Linux ``PR_SET_PDEATHSIG``), so a run killed or interrupted midway leaves no orphan
+    simulator behind; a worker whose parent is already gone exits at once."""
+    import contextlib
+    import ctypes
+    import signal
+
+    with contextlib.suppress(OSError, AttributeError):  # not Linux: no parent-death signal
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+
+def _worker_pool(workers: int) -> ProcessPoolExecutor:
+    """A pool of ``workers`` forked simulator processes that die with this process."""
+    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"),
+                               initializer=_die_with_parent, initargs=(os.getpid(),))
+
+
 def _crashed(plan: Plan, k: int, exc: BaseException) -> StepResult:
     step = plan.steps[k]
     reason = (f"the simulator process died while simulating this step ({type(exc).__name__}: "
@@ -482,13 +502,12 @@ def _simulate_parallel(plan: Plan, todo: list[int], workers: int, job: tuple[Any
     started first; results come back in step order. A worker that dies fails its step (with
     the reason) after one retry in a fresh process; the other steps are unaffected."""
     global _FORKED_JOB
-    ctx = multiprocessing.get_context("fork")
     moving = [k for k in todo if plan.steps[k].trajectory is not None]
     order = sorted(moving, key=lambda k: -plan.steps[k].trajectory.duration_s)
     done: dict[int, StepResult] = {}
     _FORKED_JOB = job
     try:
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        with _worker_pool(workers) as pool:
             futures = {k: pool.submit(_simulate_forked, k) for k in order}
             for n, k in enumerate(todo):
                 if k in futures:
@@ -505,7 +524,7 @@ def _simulate_parallel(plan: Plan, todo: list[int], workers: int, job: tuple[Any
             if k in done:
                 continue
             try:  # the pool broke: each unfinished step once more, alone
-                with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
+                with _worker_pool(1) as pool:
                     done[k] = pool.submit(_simulate_forked, k).result()
             except BrokenProcessPool as exc:
                 done[k] = _crashed(plan, k, exc)
@@ -712,13 +731,12 @@ class PipelinedSimulation:
         missing = [k for k in range(n) if k not in done]
         if missing:  # a worker died: each unfinished step once more, alone
             self.close()
-            ctx = multiprocessing.get_context("fork")
             _FORKED_JOB = (plan, self.product, self.geometry, self.fidelity, self.cull,
                            self.settings, self.criteria)
             try:
                 for k in missing:
                     try:
-                        with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
+                        with _worker_pool(1) as pool:
                             done[k] = pool.submit(_simulate_forked, k).result()
                     except BrokenProcessPool as exc:
                         done[k] = _crashed(plan, k, exc)
@@ -738,6 +756,5 @@ class PipelinedSimulation:
         if self._pool is None:
             _PIPELINE_JOB = (self.product, self.geometry, self.fidelity, self.cull,
                              self.settings, self.criteria)
-            self._pool = ProcessPoolExecutor(max_workers=self.workers,
-                                             mp_context=multiprocessing.get_context("fork"))
+            self._pool = _worker_pool(self.workers)
         return self._pool

@@ -88,6 +88,28 @@ def test_bad_input_exits_2(tmp_path, capsys) -> None:
     assert not (tmp_path / "out").exists()
 
 
+def _children(pid: int) -> list[int]:
+    """Process ids whose parent is ``pid`` (from /proc)."""
+    out = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                stat = (d / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                out.append(int(d.name))
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"  # a zombie has exited (its parent, init, reaps it)
+
+
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
 def test_killing_a_run_midway_leaves_the_previous_outdir_intact(tmp_path, sig) -> None:
     out = tmp_path / "out"
@@ -103,10 +125,16 @@ def test_killing_a_run_midway_leaves_the_previous_outdir_intact(tmp_path, sig) -
     for line in proc.stderr:
         if line.startswith("simulate:") or time.monotonic() > deadline:
             break
+    workers = _children(proc.pid)  # the simulator processes it forked
     os.kill(proc.pid, sig)
     proc.wait(timeout=60)
     assert proc.returncode != 0
     assert digest(out) == before
+    # its workers die with it: none is left behind as an orphan
+    deadline = time.monotonic() + 10
+    while any(_alive(p) for p in workers) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not [p for p in workers if _alive(p)]
     if sig == signal.SIGINT:  # a clean interrupt removes its staging folder at once
         assert proc.returncode == 130
         assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
