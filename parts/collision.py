@@ -613,17 +613,23 @@ def _piece_points_world(pc: ConvexPiece, T: np.ndarray, tol_m: float = 1e-6) -> 
     elif pc.kind == "hull":
         local = np.asarray(pc.vertices_m)
     else:  # cylinder (spheres are capsules)
-        r = pc.radius_m
-        n = 8
-        while r * (1.0 / math.cos(math.pi / n) - 1.0) > tol_m and n < 4096:
-            n *= 2
-        ang = 2.0 * math.pi * np.arange(n) / n
-        R = r / math.cos(math.pi / n)
-        ring = np.stack([R * np.cos(ang), R * np.sin(ang)], axis=1)
-        h = 0.5 * pc.length_m
-        local = np.concatenate([np.column_stack([ring, np.full(n, -h)]),
-                                np.column_stack([ring, np.full(n, h)])])
+        local = circumscribed_prism_points(pc.radius_m, pc.length_m, tol_m)
     return local @ T[:3, :3].T + T[:3, 3]
+
+
+def circumscribed_prism_points(radius_m: float, length_m: float, tol_m: float = 1e-6
+                               ) -> np.ndarray:
+    """Vertices (2n, 3) of a regular prism circumscribing a z-axis cylinder centred on the
+    origin within ``tol_m`` (n = 8, 16, 32, ... up to 4096 sides)."""
+    n = 8
+    while radius_m * (1.0 / math.cos(math.pi / n) - 1.0) > tol_m and n < 4096:
+        n *= 2
+    ang = 2.0 * math.pi * np.arange(n) / n
+    R = radius_m / math.cos(math.pi / n)
+    ring = np.stack([R * np.cos(ang), R * np.sin(ang)], axis=1)
+    h = 0.5 * length_m
+    return np.concatenate([np.column_stack([ring, np.full(n, -h)]),
+                           np.column_stack([ring, np.full(n, h)])])
 
 
 def _rotation_z_to(u: np.ndarray) -> np.ndarray:

@@ -52,7 +52,7 @@ import numpy as np
 
 from ..knowledge.frames import invert
 from ..knowledge.model import Gripper, Product, Table
-from ..parts.collision import CollisionWorld, Contact, FclShapes
+from ..parts.collision import CollisionWorld, Contact, FclShapes, circumscribed_prism_points
 from ..parts.pieces import CollisionModel, ConvexPiece
 from .errors import (
     CollidingPair,
@@ -297,19 +297,6 @@ def piece_boxes(model: CollisionModel) -> np.ndarray:
     return np.array(out).reshape(-1, 8, 3)
 
 
-def _ring_points(radius_m: float, length_m: float, tol_m: float = 1e-6) -> np.ndarray:
-    """Vertices (2n, 3) of a prism circumscribing a z-axis cylinder within ``tol_m``."""
-    n = 8
-    while radius_m * (1.0 / math.cos(math.pi / n) - 1.0) > tol_m and n < 4096:
-        n *= 2
-    ang = 2.0 * math.pi * np.arange(n) / n
-    R = radius_m / math.cos(math.pi / n)
-    ring = np.stack([R * np.cos(ang), R * np.sin(ang)], axis=1)
-    h = 0.5 * length_m
-    return np.concatenate([np.column_stack([ring, np.full(n, -h)]),
-                           np.column_stack([ring, np.full(n, h)])])
-
-
 def swept_model(model: CollisionModel, pieces: Sequence[int], T_world_part: np.ndarray,
                 delta: np.ndarray) -> CollisionModel:
     """The volume swept by the given pieces of ``model`` (at ``T_world_part``) under the
@@ -346,7 +333,7 @@ def swept_model(model: CollisionModel, pieces: Sequence[int], T_world_part: np.n
         if pc.kind == "box":
             local = (2.0 * _CORNER_SIGNS - 1.0) * pc.half_extents_m
         elif pc.kind == "cylinder":
-            local = _ring_points(pc.radius_m, pc.length_m)
+            local = circumscribed_prism_points(pc.radius_m, pc.length_m)
         elif pc.kind == "sphere":
             local = (2.0 * _CORNER_SIGNS - 1.0) * pc.radius_m
         else:

@@ -49,6 +49,7 @@ from typing import Literal
 
 import numpy as np
 
+from asmplan.knowledge.frames import invert
 from asmplan.parts.pieces import ConvexPiece
 from asmplan.planner.trajectory import matrix_from_quat_xyzw, quat_xyzw_from_matrix
 from asmplan.sim.fidelity import Fidelity
@@ -131,15 +132,6 @@ def _pose_from_bullet(position: Sequence[float], quat_xyzw: Sequence[float]) -> 
     T[:3, :3] = np.reshape(pybullet.getMatrixFromQuaternion(quat_xyzw), (3, 3))
     T[:3, 3] = position
     return T
-
-
-def invert_pose(T: np.ndarray) -> np.ndarray:
-    """Inverse of a (4, 4) rigid transform."""
-    Ti = np.eye(4)
-    R = T[:3, :3]
-    Ti[:3, :3] = R.T
-    Ti[:3, 3] = -R.T @ T[:3, 3]
-    return Ti
 
 
 def principal_frame(inertia_kgm2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -343,7 +335,7 @@ class _BodyInfo:
     compound_links: frozenset[int] = frozenset()
 
     def __post_init__(self) -> None:
-        self.T_inertial_link = invert_pose(self.T_link_inertial)
+        self.T_inertial_link = invert(self.T_link_inertial)
 
 
 # --------------------------------------------------------------------------------------------
@@ -1010,7 +1002,7 @@ class BulletWorld:
         ``fidelity.erp``); a moving target lags by about ``v dt / erp``. Returns the
         constraint id; move it with :meth:`move_pose_constraint`.
         """
-        T_inertial_link = invert_pose(self._bodies[body].T_link_inertial)
+        T_inertial_link = invert(self._bodies[body].T_link_inertial)
         parent_pos, parent_quat = pose_to_pq(T_inertial_link)
         pos, quat = pose_to_pq(T_world_target)
         cons = pybullet.createConstraint(

@@ -36,13 +36,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from asmplan.knowledge.frames import invert
 from asmplan.planner.trajectory import (
     OPEN_PHASES,
     Trajectory,
     quat_xyzw_from_matrix,
     rotation_angle_rad,
 )
-from asmplan.sim.bullet import BulletWorld, invert_pose
+from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.gripper import FINGER_LINKS, Gripper
 from asmplan.sim.records import HELD_PHASES, StepOutcome, StepRecord, SuccessCriteria
 
@@ -252,7 +253,7 @@ def execute_step(
         v, w = world.velocity(part_body)
         ke = world.kinetic_energy_J(part_body, (v, w), T_part)
         T_grip = _finger_frame(T_tcp, travel)
-        T_grip_part = invert_pose(T_grip) @ T_part
+        T_grip_part = invert(T_grip) @ T_part
         t = float(t_cmd[i])
         if T_grip_part_ref is None and t >= clamp_end - 1e-12:
             T_grip_part_ref = T_grip_part

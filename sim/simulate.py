@@ -40,7 +40,7 @@ import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -430,15 +430,42 @@ def simulate_placed_step(step: Step, layout: Layout, product: Product, geometry:
                       timing_s={"select": t1 - t0, "build": t2 - t1, "simulate": t3 - t2})
 
 
-_FORKED_JOB: tuple[Any, ...] | None = None
-"""What :func:`simulate_plan` hands to its forked worker processes (they inherit it)."""
+@dataclass(frozen=True, eq=False)
+class _Job:
+    """What the forked simulator workers inherit: the product, its geometry and the settings
+    every step is simulated with, and the plan when the workers take steps by index."""
+
+    product: Product
+    geometry: Any
+    fidelity: Fidelity
+    cull: bool
+    settings: SceneSettings
+    criteria: SuccessCriteria | None
+    plan: Plan | None = None
+
+    def step(self, index: int) -> StepResult:
+        assert self.plan is not None, "a job without a plan simulates given steps only"
+        return simulate_step(self.plan, index, self.product, self.geometry, self.fidelity,
+                             cull=self.cull, settings=self.settings, criteria=self.criteria)
+
+    def placed_step(self, step: Step, layout: Layout) -> StepResult:
+        return simulate_placed_step(step, layout, self.product, self.geometry, self.fidelity,
+                                    cull=self.cull, settings=self.settings,
+                                    criteria=self.criteria)
+
+
+_JOB: _Job | None = None
+"""The job of the forked worker processes (set before they are forked; they inherit it)."""
 
 
 def _simulate_forked(index: int) -> StepResult:
-    assert _FORKED_JOB is not None, "simulate worker started without a job"
-    plan, product, geometry, fidelity, cull, settings, criteria = _FORKED_JOB
-    return simulate_step(plan, index, product, geometry, fidelity, cull=cull,
-                         settings=settings, criteria=criteria)
+    assert _JOB is not None, "simulate worker started without a job"
+    return _JOB.step(index)
+
+
+def _simulate_planned(step: Step, layout: Layout) -> StepResult:
+    assert _JOB is not None, "simulate worker started without a job"
+    return _JOB.placed_step(step, layout)
 
 
 def default_workers() -> int:
@@ -495,43 +522,54 @@ def _crashed(plan: Plan, k: int, exc: BaseException) -> StepResult:
                       {"simulator": {"value": False, "limit": True, "ok": False}})
 
 
-def _simulate_parallel(plan: Plan, todo: list[int], workers: int, job: tuple[Any, ...],
+def _retry_alone(job: _Job, todo: Sequence[int], done: dict[int, StepResult],
+                 progress: ProgressFn | None) -> None:
+    """After a worker died (the pool is broken): every step of ``todo`` not in ``done`` once
+    more, each in a fresh process of its own; one that dies again fails with the reason."""
+    global _JOB
+    assert job.plan is not None
+    _JOB = job
+    try:
+        for n, k in enumerate(todo):
+            if k in done:
+                continue
+            try:
+                with _worker_pool(1) as pool:
+                    done[k] = pool.submit(_simulate_forked, k).result()
+            except BrokenProcessPool as exc:
+                done[k] = _crashed(job.plan, k, exc)
+            if progress is not None:
+                progress(n, len(todo), job.plan.steps[k].part, "done")
+    finally:
+        _JOB = None
+
+
+def _simulate_parallel(job: _Job, todo: list[int], workers: int,
                        progress: ProgressFn | None) -> list[StepResult]:
     """Steps in forked worker processes (each step builds its own world, so they are
     independent and the results are the same as in one process). Longest trajectories are
     started first; results come back in step order. A worker that dies fails its step (with
     the reason) after one retry in a fresh process; the other steps are unaffected."""
-    global _FORKED_JOB
+    global _JOB
+    plan = job.plan
+    assert plan is not None
     moving = [k for k in todo if plan.steps[k].trajectory is not None]
     order = sorted(moving, key=lambda k: -plan.steps[k].trajectory.duration_s)
     done: dict[int, StepResult] = {}
-    _FORKED_JOB = job
+    _JOB = job
     try:
         with _worker_pool(workers) as pool:
             futures = {k: pool.submit(_simulate_forked, k) for k in order}
             for n, k in enumerate(todo):
-                if k in futures:
-                    try:
-                        done[k] = futures[k].result()
-                    except BrokenProcessPool:
-                        break
-                else:
-                    done[k] = simulate_step(plan, k, *job[1:4], cull=job[4], settings=job[5],
-                                            criteria=job[6])
+                try:
+                    done[k] = futures[k].result() if k in futures else job.step(k)
+                except BrokenProcessPool:
+                    break
                 if progress is not None:
                     progress(n, len(todo), plan.steps[k].part, "done")
-        for n, k in enumerate(todo):
-            if k in done:
-                continue
-            try:  # the pool broke: each unfinished step once more, alone
-                with _worker_pool(1) as pool:
-                    done[k] = pool.submit(_simulate_forked, k).result()
-            except BrokenProcessPool as exc:
-                done[k] = _crashed(plan, k, exc)
-            if progress is not None:
-                progress(n, len(todo), plan.steps[k].part, "done")
     finally:
-        _FORKED_JOB = None
+        _JOB = None
+    _retry_alone(job, todo, done, progress)
     return [done[k] for k in todo]
 
 
@@ -587,8 +625,8 @@ def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
             raise IndexError(f"step {k}: expected 0..{len(plan.steps) - 1}")
     n_workers = resolve_workers(workers, sum(plan.steps[k].trajectory is not None for k in todo))
     if n_workers > 1:
-        job = (plan, product, geometry, fidelity, cull, s, criteria)
-        results = _simulate_parallel(plan, todo, n_workers, job, progress)
+        job = _Job(product, geometry, fidelity, cull, s, criteria, plan)
+        results = _simulate_parallel(job, todo, n_workers, progress)
     else:
         results = []
         for n, k in enumerate(todo):
@@ -607,17 +645,6 @@ def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
 # ---------------------------------------------------------------------------------------------
 # Simulating while planning
 # ---------------------------------------------------------------------------------------------
-_PIPELINE_JOB: tuple[Any, ...] | None = None
-"""What :class:`PipelinedSimulation` hands to its forked worker processes."""
-
-
-def _simulate_planned(step: Step, layout: Layout) -> StepResult:
-    assert _PIPELINE_JOB is not None, "simulate worker started without a job"
-    product, geometry, fidelity, cull, settings, criteria = _PIPELINE_JOB
-    return simulate_placed_step(step, layout, product, geometry, fidelity, cull=cull,
-                                settings=settings, criteria=criteria)
-
-
 class PipelinedSimulation:
     """Simulate each step in a forked worker process as soon as the planner has planned it.
 
@@ -637,8 +664,8 @@ class PipelinedSimulation:
         if int(workers) < 2:
             raise ValueError(f"workers: expected >= 2 (else simulate after planning), "
                              f"found {workers}")
-        self.product, self.geometry, self.fidelity = product, geometry, fidelity
-        self.cull, self.settings, self.criteria = cull, settings or SceneSettings(), criteria
+        self.product = product
+        self._job = _Job(product, geometry, fidelity, cull, settings or SceneSettings(), criteria)
         self.workers = int(workers)
         self._pool: ProcessPoolExecutor | None = None
         self._futures: dict[tuple[tuple[str, ...], int], Any] = {}
@@ -657,12 +684,12 @@ class PipelinedSimulation:
 
     def close(self) -> None:
         """Stop the workers (pending steps are cancelled)."""
-        global _PIPELINE_JOB
+        global _JOB
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
+            _JOB = None
         self._futures.clear()
-        _PIPELINE_JOB = None
 
     def on_step(self, order: tuple[str, ...], step: Step,
                 start_poses: dict[str, np.ndarray]) -> None:
@@ -705,56 +732,39 @@ class PipelinedSimulation:
 
     def results(self, plan: Plan, progress: ProgressFn | None = None) -> PlanResults:
         """The results of every step of the finished ``plan`` (waits for the workers)."""
-        global _FORKED_JOB
         check_plan_product(plan, self.product)
         order = tuple(plan.sequence)
         self._submit_waiting(None)  # planning is over: every core simulates
+        job = replace(self._job, plan=plan)
         done: dict[int, StepResult] = {}
         n = len(plan.steps)
         for k, step in enumerate(plan.steps):
             future = self._futures.get((order, k))
-            if future is None:
-                if step.trajectory is not None:  # not reported by the planner: simulate now
-                    future = self._ensure_pool().submit(_simulate_planned, step,
-                                                        part_poses(plan, k))
-                else:
-                    done[k] = simulate_step(plan, k, self.product, self.geometry, self.fidelity,
-                                            cull=self.cull, settings=self.settings,
-                                            criteria=self.criteria)
-            if k not in done:
-                try:
+            try:
+                if future is not None:
                     done[k] = future.result()
-                except BrokenProcessPool:
-                    continue
+                elif step.trajectory is not None:  # not reported by the planner: now
+                    done[k] = self._ensure_pool().submit(
+                        _simulate_planned, step, part_poses(plan, k)).result()
+                else:
+                    done[k] = job.step(k)
+            except BrokenProcessPool:
+                continue
             if progress is not None:
                 progress(k, n, step.part, "done")
-        missing = [k for k in range(n) if k not in done]
-        if missing:  # a worker died: each unfinished step once more, alone
+        if len(done) < n:  # a worker died
             self.close()
-            _FORKED_JOB = (plan, self.product, self.geometry, self.fidelity, self.cull,
-                           self.settings, self.criteria)
-            try:
-                for k in missing:
-                    try:
-                        with _worker_pool(1) as pool:
-                            done[k] = pool.submit(_simulate_forked, k).result()
-                    except BrokenProcessPool as exc:
-                        done[k] = _crashed(plan, k, exc)
-                    if progress is not None:
-                        progress(k, n, plan.steps[k].part, "done")
-            finally:
-                _FORKED_JOB = None
+            _retry_alone(job, range(n), done, progress)
         return PlanResults(product=self.product.name, source=plan.source,
-                           plan_sequence=tuple(plan.sequence), fidelity=self.fidelity,
-                           culled=self.cull, scene_settings=self.settings,
+                           plan_sequence=order, fidelity=job.fidelity, culled=job.cull,
+                           scene_settings=job.settings,
                            steps=tuple(done[k] for k in range(n)),
-                           warnings=clearance_warnings(self.product, self.fidelity))
+                           warnings=clearance_warnings(self.product, job.fidelity))
 
     def _ensure_pool(self) -> ProcessPoolExecutor:
         """The worker pool, forked on first use (the workers inherit the job)."""
-        global _PIPELINE_JOB
+        global _JOB
         if self._pool is None:
-            _PIPELINE_JOB = (self.product, self.geometry, self.fidelity, self.cull,
-                             self.settings, self.criteria)
+            _JOB = self._job
             self._pool = _worker_pool(self.workers)
         return self._pool

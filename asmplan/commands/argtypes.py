@@ -43,3 +43,10 @@ positive_int = int_at_least(1)
 nonnegative_int = int_at_least(0)
 positive_float = float_above(0.0)
 nonnegative_float = float_above(0.0, inclusive=True)
+
+
+def add_jobs_argument(parser: argparse.ArgumentParser) -> None:
+    """``-j/--jobs N``: processes that simulate steps (default None: one per usable core)."""
+    parser.add_argument("-j", "--jobs", type=int_at_least(1), default=None, metavar="N",
+                        help="processes that simulate steps in parallel (default: one per "
+                             "usable core; results are identical for any N)")

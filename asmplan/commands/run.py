@@ -15,7 +15,7 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
-from .argtypes import int_at_least
+from .argtypes import add_jobs_argument
 from .plan import evidence_lines
 
 if TYPE_CHECKING:  # the pipeline (trimesh, scipy, pybullet) is imported when a run starts
@@ -41,9 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-report", action="store_true", help="skip rendering the report")
     p.add_argument("--no-cull", action="store_true",
                    help="load the whole product into every step's scene (slower; for comparison)")
-    p.add_argument("-j", "--jobs", type=int_at_least(1), default=None, metavar="N",
-                   help="processes that simulate steps in parallel (default: one per usable "
-                        "core; results are identical for any N)")
+    add_jobs_argument(p)
     p.set_defaults(func=run)
 
 

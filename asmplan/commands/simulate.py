@@ -22,7 +22,7 @@ from ..fileio import atomic_write_json
 from ..knowledge.errors import InputIssue, ProductError
 from ..knowledge.loader import load_product
 from ..planner.plan import Plan
-from .argtypes import int_at_least
+from .argtypes import add_jobs_argument
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -45,9 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="wall-clock times file (default: <output stem>.timing.json)")
     p.add_argument("--no-cull", action="store_true",
                    help="keep every part in every step's scene (slower; for comparison)")
-    p.add_argument("-j", "--jobs", type=int_at_least(1), default=None, metavar="N",
-                   help="processes that simulate steps in parallel (default: one per usable "
-                        "core; results are identical for any N)")
+    add_jobs_argument(p)
     p.set_defaults(func=run)
 
 
