@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import fcl
 import numpy as np
 
+from .mesh import hull_faces
 from .pieces import CollisionModel, ConvexPiece
 
 FCL_SCALE = 1000.0  # FCL sees millimetres (see the module docstring)
@@ -84,16 +85,10 @@ class _Geom:
     hull_faces: np.ndarray | None = None  # (m, 3) for hull pieces
 
 
-def _hull_faces(vertices: np.ndarray) -> np.ndarray:
-    from scipy.spatial import ConvexHull
-
-    return np.asarray(ConvexHull(vertices).simplices, dtype=np.int64)
-
-
 def _convex(vertices: np.ndarray, faces: np.ndarray | None = None):
     """An fcl.Convex of ``vertices`` (n, 3) given in metres."""
     v = np.ascontiguousarray(vertices, dtype=float) * _K
-    f = _hull_faces(v) if faces is None else faces
+    f = hull_faces(v) if faces is None else faces
     flat = np.hstack([np.full((len(f), 1), 3, dtype=np.int64), f]).ravel()
     return fcl.Convex(v, len(f), flat)
 
@@ -139,7 +134,7 @@ class FclShapes:
             elif pc.kind == "sphere":
                 g = fcl.Sphere(_K * pc.radius_m)
             else:
-                faces = _hull_faces(pc.vertices_m)
+                faces = hull_faces(pc.vertices_m)
                 g = _convex(pc.vertices_m, faces)
             T = np.array(pc.T_part_piece)
             corners = _piece_local_extent(pc) @ T[:3, :3].T + T[:3, 3]

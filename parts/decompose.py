@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from asmplan.parts.mesh import convex_hull
 from asmplan.parts.pieces import ConvexPiece
 
 _AREA_EPS_M2 = 1e-14
@@ -289,10 +290,8 @@ def piece_volume_m3(piece: ConvexPiece) -> float:
         return math.pi * piece.radius_m**2 * piece.length_m
     if piece.kind == "sphere":
         return 4.0 / 3.0 * math.pi * piece.radius_m**3
-    import trimesh
-
     assert piece.vertices_m is not None
-    return float(trimesh.convex.convex_hull(piece.vertices_m).volume)
+    return convex_hull(piece.vertices_m).volume
 
 
 def pieces_mass_properties(
@@ -311,8 +310,6 @@ def pieces_mass_properties(
     com_m : (3,) float array, part frame.
     inertia_kgm2 : (3, 3) float array about the centre of mass, part axes.
     """
-    import trimesh
-
     items: list[tuple[float, np.ndarray, np.ndarray]] = []  # (mass, centre, inertia in part axes)
     for pc in pieces:
         R = pc.T_part_piece[:3, :3]
@@ -333,11 +330,10 @@ def pieces_mass_properties(
             inertia_local = np.eye(3) * 0.4 * m * pc.radius_m**2
         else:
             assert pc.vertices_m is not None
-            hull = trimesh.convex.convex_hull(pc.vertices_m)
-            hull.density = density_kg_m3
-            m = float(hull.mass)
+            hull = convex_hull(pc.vertices_m)
+            m = density_kg_m3 * hull.volume
             local_com = np.asarray(hull.center_mass)
-            inertia_local = np.asarray(hull.moment_inertia)
+            inertia_local = hull.moment_inertia * density_kg_m3
             centre = centre + R @ local_com
         items.append((m, centre, R @ inertia_local @ R.T))
     mass = sum(m for m, _, _ in items)

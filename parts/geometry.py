@@ -49,6 +49,7 @@ import numpy as np
 from ..knowledge import iso286
 from ..knowledge.frames import frame_from_axis, invert, transform_points
 from ..knowledge.model import Feature, Part, Product
+from .mesh import TriangleMesh
 
 FeatureKey = tuple[str, str]  # (part name, feature name)
 
@@ -505,21 +506,24 @@ def shape_solid(shape: PartShape, tol_m: float, *, with_pins: bool = True):
     return solid
 
 
-def manifold_to_trimesh(solid):
-    """A trimesh (float64) of a manifold3d solid."""
-    import trimesh
+def manifold_to_mesh(solid) -> TriangleMesh:
+    """The :class:`~asmplan.parts.mesh.TriangleMesh` (float64) of a manifold3d solid."""
+    return TriangleMesh.from_manifold(solid)
 
-    mesh = solid.to_mesh64()
-    V = np.asarray(mesh.vert_properties, dtype=float)[:, :3]
-    F = np.asarray(mesh.tri_verts, dtype=np.int64)
-    return trimesh.Trimesh(V, F, process=False)
+
+def manifold_to_trimesh(solid):
+    """A ``trimesh.Trimesh`` (float64) of a manifold3d solid (imports trimesh; the run path
+    uses :func:`manifold_to_mesh`)."""
+    return TriangleMesh.from_manifold(solid).to_trimesh()
 
 
 def trimesh_to_manifold(mesh):
-    """A manifold3d solid of a watertight trimesh; raises ValueError when it is not manifold."""
+    """A manifold3d solid of a watertight mesh (a TriangleMesh or a trimesh); raises
+    ValueError when it is not manifold."""
     m3 = _m3()
-    solid = m3.Manifold(m3.Mesh64(vert_properties=np.ascontiguousarray(mesh.vertices, dtype=float),
-                                  tri_verts=np.ascontiguousarray(mesh.faces, dtype=np.uint64)))
+    # copies: manifold3d refuses read-only arrays (TriangleMesh's are)
+    solid = m3.Manifold(m3.Mesh64(vert_properties=np.array(mesh.vertices, dtype=float),
+                                  tri_verts=np.array(mesh.faces, dtype=np.uint64)))
     if solid.status() != m3.Error.NoError:
         raise ValueError(f"not an oriented 2-manifold ({solid.status().name})")
     return solid
@@ -563,7 +567,8 @@ class MassProperties:
 
 
 def mass_properties(part: Part, mesh) -> MassProperties:
-    """Mass properties of ``part`` from its exact watertight ``mesh`` (trimesh).
+    """Mass properties of ``part`` from its exact watertight ``mesh`` (a
+    :class:`~asmplan.parts.mesh.TriangleMesh` or a trimesh).
 
     The density is the material's unless the part gives its mass, in which case the mass is
     kept and the density follows from the volume.
@@ -578,8 +583,10 @@ def mass_properties(part: Part, mesh) -> MassProperties:
     else:  # the loader requires one of them
         raise GeometryError(part.name, 'expected "material" or "mass", found neither')
     com = np.asarray(mesh.center_mass, dtype=float)
-    # trimesh's moment_inertia is about the centre of mass for density 1
-    inertia = np.asarray(mesh.moment_inertia, dtype=float) * density / max(float(mesh.density), 1e-300)
+    # moment_inertia is about the centre of mass for the mesh's density (1 unless a trimesh
+    # was given another)
+    mesh_density = float(getattr(mesh, "density", 1.0))
+    inertia = np.asarray(mesh.moment_inertia, dtype=float) * density / max(mesh_density, 1e-300)
     return MassProperties(volume * density, com, inertia, volume, density, source)
 
 
@@ -596,6 +603,7 @@ __all__ = [
     "body_solid",
     "fitted_sizes",
     "hole_solid",
+    "manifold_to_mesh",
     "manifold_to_trimesh",
     "mass_properties",
     "part_shape",

@@ -74,10 +74,11 @@ from .geometry import (
     HoleShape,
     PartShape,
     PinShape,
-    manifold_to_trimesh,
+    manifold_to_mesh,
     polygon_excess,
     sides_for_tolerance,
 )
+from .mesh import DegenerateHullError, TriangleMesh, convex_hull, hull_faces, hull_vertex_indices
 from .pieces import CollisionModel, ConvexPiece, LevelOfDetail
 
 LEVELS: tuple[LevelOfDetail, ...] = ("exact", "convex", "coarse")
@@ -110,8 +111,6 @@ def frustum_points(r0: float, r1: float, z0: float, z1: float, n: int, *, inscri
 
 def clip_convex(points: np.ndarray, normal: np.ndarray, offset: float, eps: float = 1e-12) -> np.ndarray:
     """Vertices of ``hull(points) ∩ {x : normal . x <= offset}`` ((k, 3), k may be 0)."""
-    from scipy.spatial import ConvexHull
-
     pts = np.asarray(points, dtype=float)
     nrm = np.asarray(normal, dtype=float)
     s = pts @ nrm - offset
@@ -119,8 +118,7 @@ def clip_convex(points: np.ndarray, normal: np.ndarray, offset: float, eps: floa
         return pts
     if np.all(s >= -eps):
         return np.zeros((0, 3))
-    hull = ConvexHull(pts)
-    tri = hull.simplices
+    tri = hull_faces(pts)
     pairs = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
     edges = np.unique(np.sort(pairs, axis=1), axis=0)
     a, b = edges[:, 0], edges[:, 1]
@@ -135,11 +133,9 @@ def clip_convex(points: np.ndarray, normal: np.ndarray, offset: float, eps: floa
 def _volume_ok(points: np.ndarray, min_volume: float = 1e-15) -> bool:
     if len(points) < 4:
         return False
-    from scipy.spatial import ConvexHull, QhullError
-
     try:
-        return ConvexHull(points).volume > min_volume
-    except QhullError:
+        return convex_hull(points).volume > min_volume
+    except DegenerateHullError:
         return False
 
 
@@ -629,7 +625,7 @@ def exact_model(shape: PartShape, settings: GeometrySettings, solid_without_pins
     settings : GeometrySettings
     solid_without_pins : manifold3d.Manifold, optional
         Bodies minus holes; required when the part has holes.
-    mesh : trimesh.Trimesh, optional
+    mesh : TriangleMesh, optional
         The part's mesh, for mesh-file parts.
     """
     tol = settings.exact_tolerance_m
@@ -646,7 +642,7 @@ def exact_model(shape: PartShape, settings: GeometrySettings, solid_without_pins
                               notes=("primitives; curved hull pieces within the polygon tolerance",))
     if solid_without_pins is None:
         raise GeometryError(shape.part, "exact level of a holed part needs its solid")
-    m = manifold_to_trimesh(solid_without_pins)
+    m = manifold_to_mesh(solid_without_pins)
     notes.append(f"BVH of bodies minus holes ({len(m.faces)} triangles) + pins as primitives")
     return CollisionModel("exact", tuple(pins), tol, 0.0, np.asarray(m.vertices, float),
                           np.asarray(m.faces, np.int64), tuple(notes))
@@ -715,10 +711,7 @@ def coarse_pieces(shape: PartShape, convex: tuple[ConvexPiece, ...], settings: G
     if shape.is_mesh:
         return (_hull_piece(np.asarray(mesh.convex_hull.vertices), "coarse"),)
     pts = np.concatenate([piece_points(pc, settings.convex_arc_tolerance_m) for pc in convex])
-    from scipy.spatial import ConvexHull
-
-    hull = ConvexHull(pts)
-    return (_hull_piece(pts[hull.vertices], "coarse"),)
+    return (_hull_piece(pts[hull_vertex_indices(pts)], "coarse"),)
 
 
 def bodies(model: CollisionModel, max_per_body: int = 16) -> tuple[tuple[ConvexPiece, ...], ...]:
@@ -759,10 +752,7 @@ def model_solid(model: CollisionModel, tol_m: float = 1e-6, grow_m: float = 1e-7
             pts = centre + (pts - centre) * (1.0 + grow_m / max(inner, 1e-9))
             parts.append(m3.Manifold.hull_points(np.ascontiguousarray(pts)))
     if model.mesh_vertices_m is not None:
-        import trimesh
-
-        mesh = trimesh.Trimesh(model.mesh_vertices_m, model.mesh_faces, process=False)
-        parts.append(trimesh_to_manifold(mesh))
+        parts.append(trimesh_to_manifold(TriangleMesh(model.mesh_vertices_m, model.mesh_faces)))
     return m3.Manifold.batch_boolean(parts, m3.OpType.Add)
 
 
@@ -782,8 +772,8 @@ def hausdorff(solid_a, solid_b, n_samples: int = 400, seed: int = 0) -> float:
     diff = (solid_a - solid_b) + (solid_b - solid_a)
     if diff.is_empty():
         return 0.0
-    dmesh = manifold_to_trimesh(diff)
-    ma, mb = manifold_to_trimesh(solid_a), manifold_to_trimesh(solid_b)
+    dmesh = manifold_to_mesh(diff)
+    ma, mb = manifold_to_mesh(solid_a), manifold_to_mesh(solid_b)
 
     def dist(pts: np.ndarray) -> np.ndarray:
         da = point_distances(np.asarray(ma.vertices), np.asarray(ma.faces), pts)

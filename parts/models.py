@@ -31,7 +31,7 @@ from .geometry import (
     MassProperties,
     PartShape,
     fitted_sizes,
-    manifold_to_trimesh,
+    manifold_to_mesh,
     mass_properties,
     part_shape,
     shape_solid,
@@ -49,6 +49,7 @@ from .lod import (
     measure,
     with_errors,
 )
+from .mesh import TriangleMesh
 from .meshfile import LoadedMesh, MeshFileError, load_mesh_file
 from .pieces import CollisionModel, ConvexPiece, LevelOfDetail
 
@@ -148,12 +149,14 @@ class ProductGeometry:
                                 lambda: shape_solid(sh, tol, with_pins=False))
         return self._get("solid_np", part, make)
 
-    def mesh(self, part: str):
-        """The exact watertight trimesh of the part (part frame, metres)."""
+    def mesh(self, part: str) -> TriangleMesh:
+        """The exact watertight mesh of the part (part frame, metres); ``.to_trimesh()`` gives
+        it as a trimesh."""
         def make():
             if self.shape(part).is_mesh:
-                return self.loaded_mesh(part).mesh
-            return manifold_to_trimesh(self.solid(part))
+                loaded = self.loaded_mesh(part).mesh
+                return TriangleMesh(loaded.vertices, loaded.faces)
+            return manifold_to_mesh(self.solid(part))
         return self._get("mesh", part, make)
 
     def mass_properties(self, part: str) -> MassProperties:

@@ -47,9 +47,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import trimesh
 
 from ..knowledge.model import GraspHint, Gripper
+from ..parts.mesh import TriangleMesh, sample_surface
 from .errors import CollidingPair
 from .plan import Grasp
 
@@ -88,10 +88,15 @@ class GraspSurface:
     axes_cache: dict[float, list[np.ndarray]] = field(default_factory=dict, repr=False)
 
     @classmethod
-    def from_mesh(cls, mesh: trimesh.Trimesh, com_m: np.ndarray, n_samples: int, seed: int,
+    def from_mesh(cls, mesh, com_m: np.ndarray, n_samples: int, seed: int,
                   kind: str = "mesh") -> GraspSurface:
-        """Sample ``n_samples`` surface points (area-uniform, seeded) plus the vertices."""
-        pts, face = trimesh.sample.sample_surface(mesh, int(n_samples), seed=int(seed))
+        """Sample ``n_samples`` surface points (area-uniform, seeded) plus the vertices.
+
+        ``mesh`` is a :class:`~asmplan.parts.mesh.TriangleMesh`; anything else with
+        ``vertices`` and ``faces`` (a trimesh) is read as one, with the same samples."""
+        if not isinstance(mesh, TriangleMesh):
+            mesh = TriangleMesh(mesh.vertices, mesh.faces)
+        pts, face = sample_surface(mesh, int(n_samples), seed=int(seed))
         normals = mesh.face_normals[face]
         # vertices make the extreme points (box corners and edges) exact
         vn = mesh.vertex_normals

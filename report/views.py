@@ -67,7 +67,7 @@ class Views:
 
     def mesh(self, part: str) -> trimesh.Trimesh:
         if part not in self._meshes:
-            self._meshes[part] = self.geometry.mesh(part)
+            self._meshes[part] = self.geometry.mesh(part).to_trimesh()
         return self._meshes[part]
 
     def part_item(self, part: str, T_world_part: np.ndarray, rgba: Sequence[float] | None = None

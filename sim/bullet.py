@@ -163,14 +163,14 @@ def _hulls_obj_text(hulls: Sequence[ConvexPiece]) -> str:
     text = _OBJ_CACHE.get(key)
     if text is not None:
         return text
-    import trimesh
+    from asmplan.parts.mesh import convex_hull
 
     lines = []
     offset = 1
     for k, pc in enumerate(hulls):
         assert pc.vertices_m is not None
         R, t = pc.T_part_piece[:3, :3], pc.T_part_piece[:3, 3]
-        hull = trimesh.convex.convex_hull(pc.vertices_m @ R.T + t)
+        hull = convex_hull(pc.vertices_m @ R.T + t)
         lines.append(f"o hull{k}")
         lines.extend(f"v {x!r} {y!r} {z!r}" for x, y, z in hull.vertices.tolist())
         lines.extend(

@@ -159,3 +159,21 @@ def test_simulating_while_planning_gives_the_results_of_simulating_afterwards() 
         assert one.plan.to_json() == piped.plan.to_json()
         serial = simulate_plan(piped.plan, piped.product, piped.geometry, preset("fast"), workers=1)
         assert piped.results.to_json() == serial.to_json() == one.results.to_json(), name
+
+
+def test_a_run_without_report_imports_neither_trimesh_nor_scipy(tmp_path) -> None:
+    # they cost ~0.5 s of imports per run (scipy.spatial pulls in scipy.special); the run
+    # path uses asmplan.parts.mesh instead, and only mesh files and the report need trimesh.
+    # -j 1 simulates in this process, so the simulator's imports are seen too.
+    code = (
+        "import sys\n"
+        "from asmplan.cli import main\n"
+        f"code = main(['run', {str(example_path('pinhole_station'))!r}, '-o', {str(tmp_path / 'o')!r},"
+        " '--fidelity', 'fast', '--no-report', '-j', '1'])\n"
+        "heavy = sorted(m for m in sys.modules if m.split('.')[0] in ('trimesh', 'scipy'))\n"
+        "print(code, heavy[:5])\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
+                         timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == "0 []"

@@ -152,7 +152,7 @@ def test_every_example_part_is_one_watertight_solid(examples):
     for product in examples.values():
         g = ProductGeometry(product)
         for name in product.part_names:
-            mesh = g.mesh(name)
+            mesh = g.mesh(name).to_trimesh()
             assert mesh.is_watertight, name
             assert mesh.body_count == 1, name
             assert g.mass_properties(name).mass_kg > 0

@@ -84,7 +84,7 @@ def test_parts_of_equal_shape_share_one_solid_and_one_set_of_pieces(blocks):
     assert any("hole ka" in n for n in convex["b4"].notes)
     assert g.solid("b3") is not g.solid("b1")  # a 7 mm hole
     assert g.solid("b3").volume() < g.solid("b1").volume()
-    assert g.mesh("b1") is not g.mesh("b2")  # each part has its own trimesh
+    assert g.mesh("b1") is not g.mesh("b2")  # each part has its own mesh
     # what b2 shares is what b2 alone builds
     alone = ProductGeometry(blocks)
     assert alone.solid("b2").volume() == g.solid("b2").volume()
