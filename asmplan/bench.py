@@ -5,8 +5,8 @@ Every measurement is a function returning typed, frozen results; formatting to M
 the accuracy assertions (:data:`BOUNDS`, :func:`check_bounds`) are separate. Time is measured
 and reported, never asserted: the machine is shared and noisy.
 
-Accuracy scenarios (the physics validation of ``tests/sim``, rebuilt here so that the command
-does not depend on the test tree):
+Accuracy scenarios (the physics validation scenes of ``tests/sim``, defined once in
+:mod:`asmplan.sim.scenarios`):
 
 * seed clamp cycle: an 80 g box through the seed paper's 4 s clamp-lift-translate-lower-release
   cycle; figure = mean absolute error between measured and commanded clamp force over the
@@ -36,21 +36,6 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-G = 9.81
-
-# The seed paper's clamp-force table (section 3, "Table 4 Clamping force data"), as in
-# /work/shared/reference/clamp_cycle_seed.csv; embedded so that the benchmark runs anywhere.
-SEED_PHASE_TABLE_CSV = """\
-phase,t_start_s,t_end_s,force_start_N,force_end_N,force_min_N,force_max_N
-clamp,0.0,0.1,0.0,2.0,0.0,2.0
-hold,0.1,0.5,1.57,1.57,1.57,1.57
-lift,0.5,1.5,1.57,1.70,1.57,1.70
-translate,1.5,3.0,1.55,1.60,1.55,1.60
-lower,3.0,3.5,1.60,1.65,1.60,1.65
-release,3.5,4.0,1.65,0.0,0.0,1.65
-"""
 PAPER_MAE_N = 0.03
 """Mean clamp-force error the seed paper reports between prediction and measurement, N."""
 
@@ -122,101 +107,19 @@ BOUNDS: tuple[Bound, ...] = _bounds()
 # scenarios (the physics validation scenes of tests/sim)
 
 
-def _pose(position: Sequence[float]) -> np.ndarray:
-    """TCP pointing down (z_tool = -z_world), fingers closing along world y, at ``position``."""
-    T = np.eye(4)
-    T[:3, :3] = np.diag([-1.0, 1.0, -1.0])
-    T[:3, 3] = position
-    return T
+def lift_slip_m(fidelity: Any, part: Any, force_N: float, accel_mps2: float) -> float:
+    """Largest slip (m) of ``part`` (a :class:`~asmplan.sim.scenarios.BoxPart`) in the
+    fingers, lifted at ``accel_mps2`` with ``force_N``."""
+    from .sim.scenarios import lift_slip_m as lift
 
-
-def box_piece(size_m: Sequence[float]) -> Any:
-    """A centred box :class:`~asmplan.parts.pieces.ConvexPiece` of full size ``size_m`` (m)."""
-    from .parts.pieces import ConvexPiece
-
-    return ConvexPiece(kind="box", T_part_piece=np.eye(4), half_extents_m=np.asarray(size_m) / 2)
-
-
-def box_inertia(mass_kg: float, size_m: Sequence[float]) -> np.ndarray:
-    """Inertia (3, 3) of a solid box about its centre, kg m^2."""
-    a, b, c = size_m
-    return np.diag([b * b + c * c, a * a + c * c, a * a + b * b]) * mass_kg / 12.0
-
-
-@dataclass(frozen=True)
-class BoxPart:
-    """A box gripped across its y width: size (m), mass (kg), friction (times the pads' 1.0)."""
-
-    size_m: tuple[float, float, float] = (0.04, 0.03, 0.05)
-    mass_kg: float = 0.08
-    friction: float = 0.6
-
-
-def _box_and_gripper(world: Any, part: BoxPart, clearance_m: float = 0.002) -> tuple[int, Any, np.ndarray]:
-    from .sim.gripper import Gripper, GripperSpec
-
-    world.add_ground(friction=0.5)
-    T_part = np.eye(4)
-    T_part[2, 3] = part.size_m[2] / 2.0
-    body = world.add_body((box_piece(part.size_m),), part.mass_kg, T_part,
-                          inertia_kgm2=box_inertia(part.mass_kg, part.size_m),
-                          friction=part.friction, name="box")
-    T_tcp = _pose((0.0, 0.0, part.size_m[2] / 2.0))
-    gripper = Gripper(world, GripperSpec(), T_tcp, opening_m=part.size_m[1] + 2 * clearance_m)
-    return body, gripper, T_tcp
+    return lift(fidelity, part, force_N, accel_mps2)
 
 
 def seed_cycle_outcome(fidelity: Any) -> Any:
     """Simulate the seed paper's 4 s cycle on an 80 g box; returns the StepOutcome."""
-    from .planner.trajectory import parse_phase_table, seed_cycle
-    from .sim.bullet import BulletWorld
-    from .sim.execute import execute_step
+    from .sim.scenarios import run_seed_cycle
 
-    part = BoxPart()
-    with BulletWorld(fidelity) as world:
-        body, gripper, T_tcp = _box_and_gripper(world, part)
-        traj = seed_cycle(parse_phase_table(SEED_PHASE_TABLE_CSV), T_tcp, lift_m=0.05,
-                          translation_m=(0.1, 0.0, 0.0))
-        target = world.pose(body)
-        target[:3, 3] += (0.1, 0.0, 0.0)
-        _, outcome = execute_step(world, gripper, body, traj, T_world_part_target=target)
-    return outcome
-
-
-def constant_acceleration_lift(T_tcp: np.ndarray, force_N: float, accel_mps2: float, lift_s: float = 0.2,
-                     decel_mps2: float = 2.0, dt_s: float = 1e-3) -> Any:
-    """Clamp (0 -> F in 0.1 s), hold to 0.3 s, lift at constant ``accel`` for ``lift_s``,
-    brake at ``decel`` (< g) to rest."""
-    from .planner.trajectory import PhaseSpan, Trajectory
-
-    t_clamp, t_hold = 0.1, 0.3
-    v_top = accel_mps2 * lift_s
-    t_lift = t_hold + lift_s
-    t_end = t_lift + v_top / decel_mps2
-    t = np.round(np.arange(0.0, t_end + 1e-12, dt_s), 12)
-    if t[-1] < t_end - 1e-12:
-        t = np.append(t, t_end)
-    tau = np.clip(t - t_hold, 0.0, lift_s)
-    tb = np.clip(t - t_lift, 0.0, None)
-    z = 0.5 * accel_mps2 * tau**2 + v_top * tb - 0.5 * decel_mps2 * tb**2
-    T = np.repeat(T_tcp[None], t.shape[0], axis=0)
-    T[:, 2, 3] += z
-    f = np.where(t < t_clamp, force_N * t / t_clamp, force_N)
-    phases = (PhaseSpan("clamp", 0.0, t_clamp), PhaseSpan("hold", t_clamp, t_hold),
-              PhaseSpan("lift", t_hold, t_lift), PhaseSpan("translate", t_lift, float(t[-1])))
-    return Trajectory(t_s=t, T_world_gripper=T, clamp_force_N=f, phases=phases)
-
-
-def lift_slip_m(fidelity: Any, part: BoxPart, force_N: float, accel_mps2: float) -> float:
-    """Largest slip (m) of ``part`` in the fingers, lifted at ``accel_mps2`` with ``force_N``."""
-    from .sim.bullet import BulletWorld
-    from .sim.execute import execute_step
-
-    with BulletWorld(fidelity) as world:
-        body, gripper, T_tcp = _box_and_gripper(world, part)
-        _, outcome = execute_step(world, gripper, body,
-                                  constant_acceleration_lift(T_tcp, force_N, accel_mps2))
-    return float(outcome.max_slip_m)
+    return run_seed_cycle(fidelity)[1]
 
 
 def slip_threshold_error(fidelity: Any, accel_mps2: float = 2.0, iterations: int = 8,
@@ -226,6 +129,8 @@ def slip_threshold_error(fidelity: Any, accel_mps2: float = 2.0, iterations: int
     A 100 g box, mu = 1.0 (pads) x 0.5; bracket [0.5, 2] x analytic, ``iterations`` halvings
     (8: a step of 0.6 %).
     """
+    from .sim.scenarios import BoxPart, G
+
     part = BoxPart(mass_kg=0.1, friction=0.5)
     analytic = part.mass_kg * (G + accel_mps2) / (2 * 1.0 * part.friction)
     lo, hi = 0.5 * analytic, 2.0 * analytic
@@ -251,60 +156,19 @@ class InsertionRun:
     reasons: tuple[str, ...] = ()
 
 
-HOLE_RADIUS_M, HOLE_DEPTH_M, PIN_LENGTH_M = 0.005, 0.020, 0.040
-
-
 def pin_insertion(fidelity: Any, radial_clearance_m: float) -> InsertionRun:
     """Pick a standing 40 mm steel pin, carry it over a 10 mm, 20 mm deep blind hole in a
-    fixtured 40 x 40 x 30 mm block and push it straight in to 0.2 mm above the floor.
+    fixtured 40 x 40 x 30 mm block and push it straight in to 0.2 mm above the floor
+    (:func:`asmplan.sim.scenarios.pin_insertion`, the scene of ``tests/sim``).
 
     ``radial_clearance_m`` < 0 makes an interference fit. No chamfer.
     """
-    from .parts.decompose import HoleSpec, block_with_holes_pieces
-    from .parts.pieces import ConvexPiece
-    from .planner.trajectory import Segment, trajectory_from_segments
-    from .sim.bullet import BulletWorld
-    from .sim.execute import execute_step
-    from .sim.gripper import Gripper, GripperSpec
+    from .sim.scenarios import entered_depth_m
+    from .sim.scenarios import pin_insertion as insert
 
-    block_size, block_xy, grasp_above, seat_gap, F = (0.04, 0.04, 0.03), (0.10, 0.0), 0.012, 0.2e-3, 5.0
-    r_pin = HOLE_RADIUS_M - radial_clearance_m
     t0 = time.perf_counter()
-    with BulletWorld(fidelity) as world:
-        world.add_ground(friction=0.5)
-        pieces = block_with_holes_pieces(block_size, (HoleSpec((0.0, 0.0), HOLE_RADIUS_M, HOLE_DEPTH_M, 8),))
-        T_block = np.eye(4)
-        T_block[:3, 3] = [block_xy[0], block_xy[1], block_size[2] / 2.0]
-        world.add_body(pieces, 0.0, T_block, friction=0.5, name="block")
-        mass = 7800.0 * math.pi * r_pin**2 * PIN_LENGTH_M
-        ixx = mass * (3 * r_pin**2 + PIN_LENGTH_M**2) / 12.0
-        T_pin = np.eye(4)
-        T_pin[2, 3] = PIN_LENGTH_M / 2.0
-        pin = world.add_body(
-            (ConvexPiece(kind="cylinder", T_part_piece=np.eye(4), radius_m=r_pin, length_m=PIN_LENGTH_M),),
-            mass, T_pin, inertia_kgm2=np.diag([ixx, ixx, mass * r_pin**2 / 2.0]), friction=0.5, name="pin")
-        T_grasp = _pose((0.0, 0.0, T_pin[2, 3] + grasp_above))
-        gripper = Gripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004)
-        seated_z = block_size[2] - HOLE_DEPTH_M + PIN_LENGTH_M / 2.0
-        lift_z = block_size[2] + 0.015 + PIN_LENGTH_M / 2.0 + grasp_above
-        above = _pose((block_xy[0], block_xy[1], lift_z))
-        seat = _pose((block_xy[0], block_xy[1], seated_z + seat_gap + grasp_above))
-        up = T_grasp.copy()
-        up[2, 3] = lift_z
-        retreat = seat.copy()
-        retreat[2, 3] += 0.03
-        traj = trajectory_from_segments(T_grasp, (
-            Segment("clamp", 0.1, T_grasp, 0.0, F), Segment("hold", 0.2, T_grasp, F, F),
-            Segment("lift", 0.4, up, F, F), Segment("translate", 0.6, above, F, F),
-            Segment("lower", 1.0, seat, F, F), Segment("release", 0.2, seat, F, 0.0),
-            Segment("retreat", 0.3, retreat, 0.0, 0.0)))
-        target = np.eye(4)
-        target[:3, 3] = [block_xy[0], block_xy[1], seated_z]
-        record, outcome = execute_step(world, gripper, pin, traj, T_world_part_target=target,
-                                       mate_axis_world=(0.0, 0.0, -1.0))
-    last = np.flatnonzero(record.phase_mask("lower"))[-1]
-    entered = HOLE_DEPTH_M - float(record.axial_error_m[last])
-    return InsertionRun(radial_clearance_m, bool(outcome.success), entered,
+    record, outcome = insert(fidelity, radial_clearance_m)
+    return InsertionRun(radial_clearance_m, bool(outcome.success), entered_depth_m(record),
                         float(outcome.max_penetration_m), time.perf_counter() - t0,
                         tuple(outcome.reasons))
 

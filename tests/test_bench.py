@@ -10,6 +10,7 @@ import pytest
 
 from asmplan import bench as b
 from asmplan.cli import main
+from asmplan.sim.scenarios import PinHole
 
 pytestmark = pytest.mark.slow
 
@@ -42,7 +43,8 @@ def test_fast_figures_are_within_their_bounds(fast_accuracy) -> None:
     assert abs(slip.value) <= 0.10
     fit, interference = fast_accuracy.reference
     assert fit.success and not interference.success
-    assert fit.entered_depth_m == pytest.approx(b.HOLE_DEPTH_M - 0.2e-3, abs=20e-6)  # 0.2 mm gap
+    scene = PinHole()
+    assert fit.entered_depth_m == pytest.approx(scene.hole_depth_m - scene.seat_gap_m, abs=20e-6)
     assert interference.entered_depth_m < 2e-3
     assert all(f.wall_s > 0 for f in fast_accuracy.figures)
 

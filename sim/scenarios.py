@@ -1,0 +1,263 @@
+"""The physics validation scenes, each with an analytic or converged answer.
+
+One definition serves the simulator's tests (``tests/sim``) and ``asmplan bench``, so that
+the benchmark measures exactly the scenes the tests check:
+
+* the seed paper's 4 s clamp-lift-translate-lower-release cycle on an 80 g box
+  (:func:`run_seed_cycle`; commanded clamp force from :data:`SEED_PHASE_TABLE_CSV`);
+* a box lifted at constant acceleration (:func:`lift_slip_m`; the holding force it needs is
+  ``m (g + a) / (2 mu)``);
+* a standing steel pin picked, carried and pushed straight into a blind hole of a fixtured
+  block, no chamfer (:func:`pin_insertion`, :class:`PinHole`).
+
+Every physical quantity is stated once here: sizes, masses, friction coefficients, gripper
+geometry and the trajectories. The world convention: ground at z = 0, TCP pointing down
+(:data:`R_DOWN`), fingers closing along world y.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..parts.decompose import HoleSpec, block_with_holes_pieces
+from ..parts.pieces import ConvexPiece
+from ..planner.trajectory import (
+    PhaseSpan,
+    Segment,
+    Trajectory,
+    parse_phase_table,
+    seed_cycle,
+    trajectory_from_segments,
+)
+from .bullet import BulletWorld
+from .execute import execute_step
+from .fidelity import Fidelity
+from .gripper import Gripper, GripperSpec
+from .records import StepOutcome, StepRecord, SuccessCriteria
+
+G = 9.81
+"""Gravity in the scenes, m/s^2 (PyBullet's world is set up with the same value)."""
+
+R_DOWN = np.diag([-1.0, 1.0, -1.0])
+"""TCP pointing down (z_tool = -z_world), fingers closing along world y."""
+
+# The seed paper's clamp-force table (section 3, "Table 4 Clamping force data"), as in
+# shared/reference/clamp_cycle_seed.csv; embedded so that the benchmark runs anywhere
+# (tests/sim/test_scenarios.py checks that the two agree).
+SEED_PHASE_TABLE_CSV = """\
+phase,t_start_s,t_end_s,force_start_N,force_end_N,force_min_N,force_max_N
+clamp,0.0,0.1,0.0,2.0,0.0,2.0
+hold,0.1,0.5,1.57,1.57,1.57,1.57
+lift,0.5,1.5,1.57,1.70,1.57,1.70
+translate,1.5,3.0,1.55,1.60,1.55,1.60
+lower,3.0,3.5,1.60,1.65,1.60,1.65
+release,3.5,4.0,1.65,0.0,0.0,1.65
+"""
+
+
+def pose(position: tuple[float, float, float], R: np.ndarray = R_DOWN) -> np.ndarray:
+    """(4, 4) pose with rotation ``R`` (TCP down by default) at ``position`` (m)."""
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = position
+    return T
+
+
+def box_piece(size_m: tuple[float, float, float]) -> ConvexPiece:
+    """A centred box piece of full size ``size_m`` (m)."""
+    return ConvexPiece(kind="box", T_part_piece=np.eye(4), half_extents_m=np.asarray(size_m) / 2)
+
+
+def box_inertia(mass_kg: float, size_m: tuple[float, float, float]) -> np.ndarray:
+    """Inertia (3, 3) of a solid box about its centre, kg m^2."""
+    a, b, c = size_m
+    return np.diag([b * b + c * c, a * a + c * c, a * a + b * b]) * mass_kg / 12.0
+
+
+def cylinder_inertia(mass_kg: float, radius_m: float, length_m: float) -> np.ndarray:
+    """Inertia (3, 3) of a solid cylinder (axis z) about its centre, kg m^2."""
+    ixx = mass_kg * (3 * radius_m**2 + length_m**2) / 12.0
+    return np.diag([ixx, ixx, mass_kg * radius_m**2 / 2.0])
+
+
+@dataclass(frozen=True)
+class BoxPart:
+    """A box gripped across its y width: size (m), mass (kg), friction (times the pads' 1.0)."""
+
+    size_m: tuple[float, float, float] = (0.04, 0.03, 0.05)
+    mass_kg: float = 0.08
+    friction: float = 0.6
+
+
+# --------------------------------------------------------------------------------------------
+# A box standing on the ground, the gripper open around it
+# --------------------------------------------------------------------------------------------
+def add_box_and_gripper(world: BulletWorld, part: BoxPart, gripper_spec: GripperSpec | None = None,
+                        clearance_m: float = 0.002) -> tuple[int, Gripper, np.ndarray]:
+    """Ground, the box standing on it at the origin, and the gripper open around it with
+    ``clearance_m`` on each side. Returns (body id, gripper, T_world_tcp)."""
+    world.add_ground(friction=0.5)
+    T_part = np.eye(4)
+    T_part[2, 3] = part.size_m[2] / 2.0
+    body = world.add_body((box_piece(part.size_m),), part.mass_kg, T_part,
+                          inertia_kgm2=box_inertia(part.mass_kg, part.size_m),
+                          friction=part.friction, name="box")
+    T_tcp = pose((0.0, 0.0, part.size_m[2] / 2.0))
+    gripper = Gripper(world, gripper_spec or GripperSpec(), T_tcp,
+                      opening_m=part.size_m[1] + 2 * clearance_m)
+    return body, gripper, T_tcp
+
+
+def run_seed_cycle(fidelity: Fidelity, part: BoxPart | None = None,
+                   translation_m: tuple[float, float, float] = (0.1, 0.0, 0.0)
+                   ) -> tuple[StepRecord, StepOutcome, Trajectory]:
+    """The seed paper's 4 s cycle (lift 50 mm, translate by ``translation_m``) on ``part``
+    (the 80 g box by default); the target is the start pose moved by ``translation_m``."""
+    part = part or BoxPart()
+    with BulletWorld(fidelity) as world:
+        body, gripper, T_tcp = add_box_and_gripper(world, part)
+        traj = seed_cycle(parse_phase_table(SEED_PHASE_TABLE_CSV), T_tcp, lift_m=0.05,
+                          translation_m=translation_m)
+        target = world.pose(body)
+        target[:3, 3] += translation_m
+        record, outcome = execute_step(world, gripper, body, traj, T_world_part_target=target)
+    return record, outcome, traj
+
+
+# --------------------------------------------------------------------------------------------
+# Slip threshold: lift with constant upward acceleration
+# --------------------------------------------------------------------------------------------
+def constant_acceleration_lift(T_tcp: np.ndarray, force_N: float, accel_mps2: float,
+                               lift_s: float = 0.2, decel_mps2: float = 2.0, dt_s: float = 1e-3
+                               ) -> Trajectory:
+    """Clamp (0 -> ``force_N`` in 0.1 s), hold to 0.3 s, lift at constant ``accel_mps2`` for
+    ``lift_s``, brake at ``decel_mps2`` (< g, so the part stays pressed down) to rest."""
+    t_clamp, t_hold = 0.1, 0.3
+    v_top = accel_mps2 * lift_s
+    t_lift = t_hold + lift_s
+    t_end = t_lift + v_top / decel_mps2
+    t = np.round(np.arange(0.0, t_end + 1e-12, dt_s), 12)
+    if t[-1] < t_end - 1e-12:
+        t = np.append(t, t_end)
+    tau = np.clip(t - t_hold, 0.0, lift_s)
+    tb = np.clip(t - t_lift, 0.0, None)
+    z = 0.5 * accel_mps2 * tau**2 + v_top * tb - 0.5 * decel_mps2 * tb**2
+    T = np.repeat(T_tcp[None], t.shape[0], axis=0)
+    T[:, 2, 3] += z
+    f = np.where(t < t_clamp, force_N * t / t_clamp, force_N)
+    phases = (PhaseSpan("clamp", 0.0, t_clamp), PhaseSpan("hold", t_clamp, t_hold),
+              PhaseSpan("lift", t_hold, t_lift), PhaseSpan("translate", t_lift, float(t[-1])))
+    return Trajectory(t_s=t, T_world_gripper=T, clamp_force_N=f, phases=phases)
+
+
+def lift_slip_m(fidelity: Fidelity, part: BoxPart, force_N: float, accel_mps2: float) -> float:
+    """Largest slip (m) of ``part`` in the fingers, lifted at ``accel_mps2`` with ``force_N``."""
+    with BulletWorld(fidelity) as world:
+        body, gripper, T_tcp = add_box_and_gripper(world, part)
+        _, outcome = execute_step(world, gripper, body,
+                                  constant_acceleration_lift(T_tcp, force_N, accel_mps2))
+    return float(outcome.max_slip_m)
+
+
+# --------------------------------------------------------------------------------------------
+# Pin into a blind hole of a fixtured block
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PinHole:
+    """The pin-insertion scene: a blind hole (exact 8-sided decomposition by default, no
+    chamfer) in a fixtured block, a standing steel pin, the gripper's force and seat gap."""
+
+    hole_radius_m: float = 0.005
+    hole_depth_m: float = 0.020
+    n_sides: int = 8
+    block_size_m: tuple[float, float, float] = (0.04, 0.04, 0.03)
+    block_xy_m: tuple[float, float] = (0.10, 0.0)
+    pin_length_m: float = 0.040
+    pin_density_kg_m3: float = 7800.0
+    pin_friction: float = 0.5
+    block_friction: float = 0.5
+    clamp_force_N: float = 5.0
+    grasp_above_centre_m: float = 0.012
+    seat_gap_m: float = 0.2e-3  # the gripper stops this far above the hole floor
+
+
+def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_m: float = 0.0,
+                  scene: PinHole | None = None, criteria: SuccessCriteria | None = None
+                  ) -> tuple[StepRecord, StepOutcome]:
+    """Pick a standing pin, carry it over the hole and insert it along -z.
+
+    ``radial_clearance_m`` < 0 makes an interference fit; ``lateral_offset_m`` shifts the
+    place pose along x (no chamfer anywhere).
+    """
+    s = scene or PinHole()
+    r_pin = s.hole_radius_m - radial_clearance_m
+    with BulletWorld(fidelity) as world:
+        world.add_ground(friction=0.5)
+        block_pieces = block_with_holes_pieces(
+            s.block_size_m, (HoleSpec((0.0, 0.0), s.hole_radius_m, s.hole_depth_m, s.n_sides),))
+        T_block = np.eye(4)
+        T_block[:3, 3] = [s.block_xy_m[0], s.block_xy_m[1], s.block_size_m[2] / 2.0]
+        world.add_body(block_pieces, 0.0, T_block, friction=s.block_friction, name="block")
+        pin_piece = ConvexPiece(kind="cylinder", T_part_piece=np.eye(4), radius_m=r_pin,
+                                length_m=s.pin_length_m)
+        mass = s.pin_density_kg_m3 * math.pi * r_pin**2 * s.pin_length_m
+        T_pin = np.eye(4)
+        T_pin[2, 3] = s.pin_length_m / 2.0
+        pin = world.add_body((pin_piece,), mass, T_pin,
+                             inertia_kgm2=cylinder_inertia(mass, r_pin, s.pin_length_m),
+                             friction=s.pin_friction, name="pin")
+        T_grasp = pose((0.0, 0.0, T_pin[2, 3] + s.grasp_above_centre_m))
+        gripper = Gripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004)
+        floor_z = s.block_size_m[2] - s.hole_depth_m
+        seated_centre_z = floor_z + s.pin_length_m / 2.0
+        lift_z = s.block_size_m[2] + 0.015 + s.pin_length_m / 2.0 + s.grasp_above_centre_m
+        x, y = s.block_xy_m
+        above = pose((x + lateral_offset_m, y, lift_z))
+        seat = pose((x + lateral_offset_m, y, seated_centre_z + s.seat_gap_m + s.grasp_above_centre_m))
+        up = T_grasp.copy()
+        up[2, 3] = lift_z
+        retreat = seat.copy()
+        retreat[2, 3] += 0.03
+        F = s.clamp_force_N
+        traj = trajectory_from_segments(T_grasp, (
+            Segment("clamp", 0.1, T_grasp, 0.0, F),
+            Segment("hold", 0.2, T_grasp, F, F),
+            Segment("lift", 0.4, up, F, F),
+            Segment("translate", 0.6, above, F, F),
+            Segment("lower", 1.0, seat, F, F),
+            Segment("release", 0.2, seat, F, 0.0),
+            Segment("retreat", 0.3, retreat, 0.0, 0.0),
+        ))
+        target = np.eye(4)
+        target[:3, 3] = [x, y, seated_centre_z]
+        return execute_step(world, gripper, pin, traj, criteria=criteria,
+                            T_world_part_target=target, mate_axis_world=(0.0, 0.0, -1.0))
+
+
+def entered_depth_m(record: StepRecord, scene: PinHole | None = None) -> float:
+    """How deep the pin was in the hole when the gripper stopped pushing (end of "lower"), m."""
+    s = scene or PinHole()
+    last = np.flatnonzero(record.phase_mask("lower"))[-1]
+    return s.hole_depth_m - float(record.axial_error_m[last])
+
+
+__all__ = [
+    "R_DOWN",
+    "SEED_PHASE_TABLE_CSV",
+    "BoxPart",
+    "G",
+    "PinHole",
+    "add_box_and_gripper",
+    "box_inertia",
+    "box_piece",
+    "constant_acceleration_lift",
+    "cylinder_inertia",
+    "entered_depth_m",
+    "lift_slip_m",
+    "pin_insertion",
+    "pose",
+    "run_seed_cycle",
+]
