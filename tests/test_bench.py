@@ -85,3 +85,14 @@ def test_quick_bench_fails_loudly_on_a_regression(tmp_path, monkeypatch, capsys)
 
 def test_bad_sections_are_bad_usage() -> None:
     assert main(["bench", "--sections", "accuracy,nonsense"]) == 2
+
+
+def test_seed_section_times_the_workstation_through_the_cli_and_the_library() -> None:
+    timing = b.run_seed_timing(runs=1)
+    assert timing.success, timing.failure
+    # the stages the library run reports add up to no more than its wall time
+    assert sum(v for k, v in timing.stages_s.items() if k != "report") <= timing.library_s[0]
+    assert 0 < timing.imports_s[0] < timing.cli_s[0]
+    text = b.format_markdown(b.BenchReport(quick=False, machine={}, seed=timing))
+    assert "## The seed workstation end to end" in text
+    assert "Every run succeeded." in text

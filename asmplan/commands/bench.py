@@ -1,6 +1,7 @@
 """``asmplan bench [--quick] [--out FILE] [--sections ...]``: measure accuracy, cost and scaling.
 
-Full run (default): every section (accuracy at every preset, motion planning vs direct OMPL,
+Full run (default): every section (accuracy at every preset, the seed workstation end to end
+at FAST, motion planning vs direct OMPL,
 scaling on generated products, scene culling, sweep throughput); prints the tables and writes
 ``docs/benchmarks.md`` and ``docs/benchmarks.png`` (the accuracy-vs-cost plot beside it).
 ``--quick`` (CI): the accuracy scenarios at FAST and BALANCED only, and nothing is written
@@ -93,6 +94,10 @@ def run(args: argparse.Namespace) -> int:
         rep.regressions = b.check_bounds(rep.accuracy.figures)
         show("Accuracy vs cost", b.format_accuracy_summary(rep.accuracy) + "\n"
              + b.format_accuracy(rep.accuracy))
+    if "seed" in sections:
+        log(f"seed workstation at FAST without the report, {b.SEED_RUNS} runs")
+        rep.seed = b.run_seed_timing(log=log)
+        show("Seed workstation end to end", b.format_seed_timing(rep.seed))
     if "planning" in sections:
         log("planning: bundled examples vs direct OMPL insertion")
         rep.planning = b.run_planning()
