@@ -7,7 +7,9 @@ Every step is bounded in time and says what it did:
    on the raw bytes (ASCII STL ``facet``, OBJ ``f`` lines, a linear scan); over
    ``hard_max_triangles`` the file is refused without being parsed.
 2. **Read** with trimesh (no processing), scale to metres. STEP comes through cascadio already
-   in metres (its own units are converted), so the YAML ``units`` are NOT applied to it.
+   in metres (its own units are converted), so the YAML ``units`` are NOT applied to it. A STEP
+   file that does not open with ``ISO-10303-21;`` or close with ``END-ISO-10303-21;`` (truncated)
+   is refused before translation; a failed translation says so (not trimesh's missing GLB).
 3. **Safe repair** only: merge duplicate vertices, drop degenerate and duplicate faces, make
    the winding consistent and the normals point outwards, fill holes of three or four edges.
    Nothing that moves a surface.
@@ -97,18 +99,52 @@ def count_triangles(path: Path) -> int | None:
     return None
 
 
+_STEP_START = b"ISO-10303-21;"
+_STEP_END = b"END-ISO-10303-21;"
+
+
+def _check_step_frame(path: Path) -> None:
+    """Refuse a STEP file that does not open with ``ISO-10303-21;`` or close with
+    ``END-ISO-10303-21;`` (ISO 10303-21 section 5): cascadio only reports a failed
+    translation, which trimesh surfaces as a missing temporary ``converted.glb``."""
+    size = path.stat().st_size
+    with path.open("rb") as fh:
+        head = fh.read(256)
+        fh.seek(max(0, size - 4096))
+        tail = fh.read()
+    start = head.lstrip(b"\xef\xbb\xbf \t\r\n")
+    if not start.startswith(_STEP_START):
+        found = repr(start[:20].decode("latin-1")) if start else "an empty file"
+        raise MeshFileError(path, f"expected a STEP (ISO 10303-21) text file starting with "
+                            f"'ISO-10303-21;', found {found}")
+    if _STEP_END not in tail:
+        raise MeshFileError(path, "expected a STEP (ISO 10303-21) file ending with "
+                            f"'END-ISO-10303-21;', found none in its last {len(tail):,} bytes: "
+                            "the file looks truncated")
+
+
 def _read(path: Path):
     import trimesh
 
     suffix = path.suffix.lower()
-    if suffix in _STEP_SUFFIXES:
+    is_step = suffix in _STEP_SUFFIXES
+    if is_step:
         try:
             import cascadio  # noqa: F401  (registers the STEP loader with trimesh)
         except ImportError:
             raise MeshFileError(path, "reading STEP needs the optional extra: pip install "
                                 "'asmplan[step]' (cascadio)") from None
+        _check_step_frame(path)
     try:
         loaded = trimesh.load(str(path), force="mesh", process=False)
+    except FileNotFoundError as exc:
+        if not is_step:
+            raise MeshFileError(path, f"cannot read the file as {suffix[1:].upper()}: "
+                                f"{type(exc).__name__}: {exc}") from None
+        # cascadio writes no GLB when OpenCASCADE fails; its reason goes to the console
+        raise MeshFileError(path, "cascadio (OpenCASCADE) could not translate the STEP file to "
+                            "a mesh: expected valid ISO 10303-21 entities describing a solid or "
+                            "a closed shell (OpenCASCADE printed its reason on the console)") from None
     except Exception as exc:  # trimesh raises many types on malformed files
         raise MeshFileError(path, f"cannot read the file as {suffix[1:].upper()}: "
                             f"{type(exc).__name__}: {exc}") from None
