@@ -90,6 +90,29 @@ def test_mesh_part_checks_at_exact_and_convex_levels():
         assert m.measured_m == pytest.approx(17e-6, abs=m.bound_m)
 
 
+def test_gear_unit_cover_is_carried_on_both_sides_of_its_centre_of_mass(examples):
+    # Lowered 50 um from its assembled pose, the cover must meet what carries it: the bearing
+    # block behind its centre of mass and the posts' shoulders in front of it. With plain
+    # posts only the block met it, and the centre of mass (x = 12.6 mm) lies 32.6 mm in front
+    # of the block's front edge (x = -20 mm): the cover tipped when released.
+    product = examples["gear_unit"]
+    g = ProductGeometry(product)
+    world = g.collision_world("exact")
+    T = product.T_world_assembled("cover").copy()
+    assert not world.in_collision("cover", tolerance_m=1e-6)
+    T[2, 3] -= 50e-6
+    world.set_pose("cover", T)
+    carriers = {n for n in product.part_names
+                if n != "cover" and world.in_collision("cover", (n,), tolerance_m=1e-6)}
+    assert carriers == {"bearing_block", "post_1", "post_2"}
+    com_x = (T[:3, :3] @ g.mass_properties("cover").com_m + T[:3, 3])[0]
+    block_front_x = world.aabb("bearing_block")[1, 0]
+    post_x = [product.T_world_assembled(p)[0, 3] for p in ("post_1", "post_2")]
+    assert block_front_x == pytest.approx(-20e-3, abs=1e-6)
+    assert com_x == pytest.approx(12.586e-3, abs=1e-6)
+    assert block_front_x < com_x < min(post_x)
+
+
 def test_world_for_a_product_builds_in_milliseconds_once_geometry_is_cached(examples):
     g = ProductGeometry(examples["gear_unit"])
     g.collision_world("exact")  # builds solids, models and BVH trees once
