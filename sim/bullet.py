@@ -25,6 +25,20 @@ base and never move.
 Poses returned by this module are link frames (the part frame for parts), not PyBullet's
 centre-of-mass frames.
 
+Contact breaking distance
+-------------------------
+Bullet keeps a contact point of a pair in a persistent manifold, with the normal it had when
+it was found, until the point separates along that normal or slides sideways by more than
+the pair's breaking distance; it also creates points up to that distance before the bodies
+touch. The distance is the world's breaking fraction (PyBullet's ``contactBreakingThreshold``,
+0.02 by default) times the smaller of the two colliders' bounding radii (Bullet's "angular
+motion disc": half the diagonal of the collider's bounding box in its inertial frame plus
+the box centre's distance from the centre of mass): 0.36 mm for a 20 mm collar. A point born
+between two chamfers therefore survives while a part slides on through a gap narrower than
+that, pushing along its stale normal (a phantom contact).
+:meth:`BulletWorld.limit_contact_breaking_m` lowers the fraction for one world so that no
+contact of a given body is kept farther than a given distance (:func:`bounding_radius_m`).
+
 Contact forces
 --------------
 :meth:`BulletWorld.contacts` returns the points as arrays; ``normal_on_b`` points from B to A,
@@ -196,6 +210,70 @@ def _is_compound(group: Sequence[ConvexPiece]) -> bool:
     return piece.kind != "hull" and not np.array_equal(piece.T_part_piece, np.eye(4))
 
 
+PYBULLET_CONTACT_BREAKING_FRACTION = 0.02
+"""PyBullet's default ``contactBreakingThreshold`` (Bullet's ``gContactBreakingThreshold``): a
+fraction of each collider's bounding radius, see the module docstring."""
+
+HULL_BOX_GROWTH_M = 2e-3
+"""Bullet's bounding box of a hull collider (the OBJ compound) is the hulls' box grown by this
+much along every axis: PyBullet's 1 mm default margin, counted at creation by the hulls and by
+their compound, before :meth:`BulletWorld.add_body` sets the margin to the fidelity's value.
+Measured: with it the probed breaking distances of five gear_unit parts match to 1e-4
+relative; without it they are 6-22 % larger than predicted. ``tests/sim/test_bullet.py``
+re-checks it."""
+
+
+def _piece_box(piece: ConvexPiece) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) (3,) of the box Bullet bounds ``piece`` by, body frame, m: the hull's exact box,
+    a sphere's, or the box of the rotated local box of a box or cylinder."""
+    T = piece.T_part_piece
+    if piece.kind == "hull":
+        assert piece.vertices_m is not None
+        pts = piece.vertices_m @ T[:3, :3].T + T[:3, 3]
+        return pts.min(axis=0), pts.max(axis=0)
+    if piece.kind == "sphere":
+        return T[:3, 3] - piece.radius_m, T[:3, 3] + piece.radius_m
+    if piece.kind == "box":
+        assert piece.half_extents_m is not None
+        half = np.asarray(piece.half_extents_m, dtype=float)
+    else:
+        half = np.array([piece.radius_m, piece.radius_m, 0.5 * piece.length_m])
+    reach = np.abs(T[:3, :3]) @ half
+    return T[:3, 3] - reach, T[:3, 3] + reach
+
+
+def bounding_radius_m(group: Sequence[ConvexPiece], com_m: Sequence[float],
+                      R_link_inertial: np.ndarray) -> float:
+    """Bullet's bounding radius ("angular motion disc") of one collider, m.
+
+    Parameters
+    ----------
+    group : sequence of ConvexPiece
+        The pieces of one collision shape (all hulls, or up to 16 primitives), link frame.
+    com_m : (3,) float
+        The link's centre of mass (its inertial frame's origin), link frame, m.
+    R_link_inertial : (3, 3) float array
+        Axes of the inertial frame in the link frame.
+
+    Returns
+    -------
+    float
+        Half the diagonal of the collider's box taken into the inertial frame (the box of the
+        rotated box, as Bullet bounds a compound's child) plus the distance of its centre from
+        the centre of mass. A pair's breaking distance is the world's breaking fraction times
+        the smaller of its two colliders' radii.
+    """
+    boxes = [_piece_box(pc) for pc in group]
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
+    half = 0.5 * (hi - lo)
+    if any(pc.kind == "hull" for pc in group):
+        half = half + HULL_BOX_GROWTH_M
+    R = np.asarray(R_link_inertial, dtype=float)
+    centre = R.T @ (0.5 * (hi + lo) - np.asarray(com_m, dtype=float))
+    return float(np.linalg.norm(np.abs(R.T) @ half) + np.linalg.norm(centre))
+
+
 # --------------------------------------------------------------------------------------------
 # Contacts
 # --------------------------------------------------------------------------------------------
@@ -333,6 +411,7 @@ class _BodyInfo:
     n_links: int
     inertia_kgm2: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
     compound_links: frozenset[int] = frozenset()
+    bounding_radius_m: float = math.nan  # the largest of its colliders' (bounding_radius_m)
 
     def __post_init__(self) -> None:
         self.T_inertial_link = invert(self.T_link_inertial)
@@ -370,6 +449,7 @@ class BulletWorld:
         self._states: list[int] = []
         self._state_steps: dict[int, int] = {}
         self._tmpdir: str | None = None
+        self._breaking_fraction = PYBULLET_CONTACT_BREAKING_FRACTION
         cid = self._cid
         pybullet.setGravity(*self.gravity_mps2.tolist(), physicsClientId=cid)
         pybullet.setPhysicsEngineParameter(
@@ -381,6 +461,7 @@ class BulletWorld:
             contactERP=fidelity.contact_erp,
             frictionERP=fidelity.friction_erp,
             enableConeFriction=int(fidelity.cone_friction),
+            contactBreakingThreshold=PYBULLET_CONTACT_BREAKING_FRACTION,
             deterministicOverlappingPairs=1,
             enableFileCaching=0,
             physicsClientId=cid,
@@ -641,6 +722,7 @@ class BulletWorld:
             n_links=k,
             inertia_kgm2=inertia,
             compound_links=frozenset(j - 1 for j, g in enumerate(groups) if _is_compound(g)),
+            bounding_radius_m=max(bounding_radius_m(g, com, axes) for g in groups),
         )
         return body
 
@@ -741,6 +823,7 @@ class BulletWorld:
         T_link_inertial = np.eye(4)
         T_link_inertial[:3, 3] = np.asarray(base_com_m, dtype=float)
         groups = [list(base_pieces)] + [list(spec.pieces) for spec in links]
+        coms = [np.asarray(base_com_m, dtype=float)] + [np.asarray(s.com_m, float) for s in links]
         self._bodies[body] = _BodyInfo(
             name=name or f"body{body}",
             mass_kg=float(base_mass_kg + sum(s.mass_kg for s in links)),
@@ -748,6 +831,8 @@ class BulletWorld:
             T_link_inertial=T_link_inertial,
             n_links=len(links),
             compound_links=frozenset(j - 1 for j, g in enumerate(groups) if _is_compound(g)),
+            bounding_radius_m=max(bounding_radius_m(g, c, np.eye(3))
+                                  for g, c in zip(groups, coms, strict=True)),
         )
         return body
 
@@ -766,6 +851,47 @@ class BulletWorld:
     def body_com_m(self, body: int) -> np.ndarray:
         """Centre of mass of a body's base in its link frame, (3,) m."""
         return self._bodies[body].T_link_inertial[:3, 3].copy()
+
+    def contact_breaking_m(self, body: int, other: int | None = None) -> float:
+        """Largest distance (m) at which Bullet creates or keeps a contact point between
+        ``body`` and ``other`` (any body when None): the world's breaking fraction times the
+        smaller of the two bodies' bounding radii (each the largest of its colliders'; Bullet
+        takes the smaller radius of the two colliders of a pair, so this bounds every pair)."""
+        radius = self._bodies[body].bounding_radius_m
+        if other is not None:
+            radius = min(radius, self._bodies[other].bounding_radius_m)
+        return self._breaking_fraction * radius
+
+    def limit_contact_breaking_m(self, body: int, distance_m: float,
+                                 others: Sequence[int] = ()) -> None:
+        """Lower the world's breaking fraction so that :meth:`contact_breaking_m` of ``body``
+        and each of ``others`` (of ``body`` and anything, when ``others`` is empty) is at most
+        ``distance_m``; never raises it (see the module docstring).
+
+        The fraction is one value for the whole world: every other pair's distance shrinks in
+        proportion. Bullet fixes a pair's breaking distance when it first meets the pair, so
+        this must be called before the first step.
+
+        Raises
+        ------
+        ValueError
+            For a distance that is not > 0.
+        BulletError
+            After the first step.
+        """
+        if not (math.isfinite(distance_m) and distance_m > 0.0):
+            raise ValueError(f"distance_m: expected a finite value > 0, found {distance_m}")
+        if self._steps > 0:
+            raise BulletError(f"limit_contact_breaking_m: expected before the first step, "
+                              f"found {self._steps} steps taken")
+        radius = self._bodies[body].bounding_radius_m
+        if others:
+            radius = min(radius, max(self._bodies[o].bounding_radius_m for o in others))
+        fraction = distance_m / radius
+        if fraction < self._breaking_fraction:
+            self._breaking_fraction = fraction
+            pybullet.setPhysicsEngineParameter(contactBreakingThreshold=fraction,
+                                               physicsClientId=self.client_id)
 
     def body_link_count(self, body: int) -> int:
         """Number of non-base links of a body."""

@@ -39,6 +39,31 @@ Roles
 Fixtured parts are static (mass 0: the fixture holds them); the fixture itself is not
 modelled as a body. Everything else is left out.
 
+Contact breaking distance
+-------------------------
+When the held part has fits with parts in place, at least one of those partners is dynamic,
+and the smallest diametral clearance of the fits is one the fidelity resolves
+(``Fidelity.min_resolvable_clearance_m``), the scene limits the distance at which PyBullet
+creates and keeps a contact point between the held part and its dynamic fit partners to half
+that clearance (:attr:`StepScene.contact_breaking_m`, applied by :func:`build_scene` through
+:meth:`~asmplan.sim.bullet.BulletWorld.limit_contact_breaking_m`). At PyBullet's default
+(0.02 of a body's bounding radius: 0.36 mm for gear_unit's 20 mm collar) a contact point found
+between the collar's and the shaft's chamfers as the collar reached the shaft was kept, with
+its 44 deg normal, while the collar slid on through its 40-85 um radial gap; the stale normal
+then pushed the shaft, free in the bearing block's bore, 9 mm along (a phantom contact).
+Limited to 40 um, the collar never touches the shaft and the shaft stays within 13 um.
+
+The limit is not free, hence the conditions. With a shorter distance in every step (fraction
+0.005, 0.002 or 0.001 at BALANCED) 6 to 8 of the 9 steps with H7/g6, H7/h6 or H8/f7 fits
+(below BALANCED's resolution) in pinhole_station, peg_in_hole and gear_unit failed (the peg
+stuck at the hole mouth and the fingers slid down it; slips of 3.9-9.2 mm, a 247 N seating
+force). A peg with 0.15 mm clearance placed 0.3-0.5 mm off its hole's axis was guided in by
+the 0.5 mm chamfers at the default and stuck on the seam between the chamfer's and the bore's
+convex pieces with the limit (75 um); its block is fixtured, where a phantom contact only
+resists the position-controlled gripper. Measured unchanged by the limit: the measurement
+behind BALANCED's resolution (radial 50 and 25 um: inserted, interference blocked after 0.75
+and 0.98 mm, at distances of 13-51 um) and the slip threshold of a grip.
+
 Features that stay empty
 ------------------------
 A hole that nothing enters during the step is modelled solid (:func:`empty_holes`): a hole
@@ -127,6 +152,10 @@ class SceneSettings:
         Make non-fixtured mates and touching parts dynamic or static; None (default) follows
         ``Fidelity.dynamic_partners`` (static at FAST). In the whole-product scene
         (``cull=False``) the placed parts follow the same choice.
+    limit_contact_breaking : bool
+        Limit the contact breaking distance between the held part and its dynamic fit
+        partners when the fidelity resolves the fits (see the module docstring); False keeps
+        PyBullet's default everywhere.
     """
 
     near_margin_m: float = 5e-3
@@ -136,6 +165,7 @@ class SceneSettings:
     nest_inset_m: float = 0.5e-3
     nest_min_height_m: float = 10e-6
     dynamic_partners: bool | None = None
+    limit_contact_breaking: bool = True
 
     def __post_init__(self) -> None:
         for name in ("near_margin_m", "include_margin_m", "touch_tolerance_m",
@@ -224,6 +254,11 @@ class StepScene:
     notes : tuple of str
     culled : bool
         False when every part was kept (``cull=False``).
+    contact_breaking_m : float or None
+        Largest distance at which the simulator keeps a contact point between the held part
+        and its dynamic fit partners (``contact_breaking_partners``), m; None: PyBullet's
+        default (see the module docstring).
+    contact_breaking_partners : tuple of str
     """
 
     step_index: int
@@ -232,6 +267,8 @@ class StepScene:
     left_out: tuple[tuple[str, str], ...]
     notes: tuple[str, ...] = ()
     culled: bool = True
+    contact_breaking_m: float | None = None
+    contact_breaking_partners: tuple[str, ...] = ()
 
     def body(self, name: str) -> SceneBody:
         for b in self.bodies:
@@ -256,6 +293,8 @@ class StepScene:
             "bodies": [b.summary() for b in self.bodies],
             "left_out": [{"name": n, "reason": r} for n, r in self.left_out],
             "notes": list(self.notes),
+            "contact_breaking_m": self.contact_breaking_m,
+            "contact_breaking_partners": list(self.contact_breaking_partners),
         }
 
 
@@ -698,6 +737,29 @@ def step_scene(step: Step, layout: Layout, product: Product, geometry: Any, fide
         notes.append(f"{other} mates with {held} but does not touch it when seated "
                      f"(distance > {s.touch_tolerance_m * 1e3:.2f} mm); treated as an obstacle")
 
+    # contact breaking distance: below the radial gap of fits the preset resolves, when a
+    # fit partner is dynamic (a phantom contact can push it)
+    fits = [m for m in product.mates if held in (m.pin_part, m.hole_part)
+            and (m.hole_part if m.pin_part == held else m.pin_part) in placed]
+    movable = sorted({o for m in fits
+                      if (o := m.hole_part if m.pin_part == held else m.pin_part) in partners
+                      and partners[o].dynamic})
+    breaking: float | None = None
+    breaking_partners: tuple[str, ...] = ()
+    if s.limit_contact_breaking and movable:
+        tightest = min(fits, key=lambda m: m.clearance_min_m)
+        c = float(tightest.clearance_min_m)
+        if c >= fidelity.min_resolvable_clearance_m:
+            breaking = 0.5 * c
+            breaking_partners = tuple(movable)
+            notes.append(
+                f"contact points between {held} and {', '.join(breaking_partners)} "
+                f"(dynamic) are kept up to {breaking * 1e3:.3f} mm apart, half the smallest "
+                f"diametral clearance of the fits ({tightest.name}: {c * 1e3:.3f} mm, resolved "
+                f"at {fidelity.name}); at PyBullet's default distance (0.02 of a body's "
+                "bounding radius) a contact found at a chamfer is carried across the fit's gap "
+                "and can push the partner")
+
     # supports of the dynamic partners
     supports: dict[str, SceneBody] = {}
     for name in sorted(partners):
@@ -774,14 +836,17 @@ def step_scene(step: Step, layout: Layout, product: Product, geometry: Any, fide
     ordered += [partners[n] for n in sorted(partners)]
     ordered += [supports[n] for n in sorted(supports)]
     ordered += obstacles
-    return StepScene(index, held, tuple(ordered), tuple(left_out), tuple(notes), culled=cull)
+    return StepScene(index, held, tuple(ordered), tuple(left_out), tuple(notes), culled=cull,
+                     contact_breaking_m=breaking, contact_breaking_partners=breaking_partners)
 
 
 # ---------------------------------------------------------------------------------------------
 # Building
 # ---------------------------------------------------------------------------------------------
 def build_scene(world: BulletWorld, scene: StepScene) -> dict[str, int]:
-    """Create the scene's bodies in ``world``; returns body ids by name (in scene order)."""
+    """Create the scene's bodies in ``world`` (before its first step) and limit the held
+    part's contact breaking distance (:attr:`StepScene.contact_breaking_m`); returns body ids by
+    name (in scene order)."""
     ids: dict[str, int] = {}
     for b in scene.bodies:
         if b.dynamic:
@@ -791,4 +856,8 @@ def build_scene(world: BulletWorld, scene: StepScene) -> dict[str, int]:
         else:
             ids[b.name] = world.add_body(b.pieces, 0.0, b.T_world_body, friction=b.friction,
                                          name=b.name)
+    if scene.contact_breaking_m is not None:
+        others = [ids[n] for n in scene.contact_breaking_partners if n in ids]
+        if others:
+            world.limit_contact_breaking_m(ids[scene.part], scene.contact_breaking_m, others)
     return ids

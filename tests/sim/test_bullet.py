@@ -226,3 +226,84 @@ def test_bad_bodies_are_rejected():
             world.add_body((box_piece((0.01,) * 3),), 0.1, np.eye(4), inertia_kgm2=np.zeros((3, 3)))
         with pytest.raises(ValueError, match="at least one piece"):
             world.add_body((), 0.0, np.eye(4))
+
+
+def _ring_of_hulls(n=12, r_in=0.005, r_out=0.010, half_length=0.004):
+    """A collar-like ring: n convex sectors (hulls) about the z axis."""
+    pieces = []
+    for k in range(n):
+        a0, a1 = 2 * math.pi * k / n, 2 * math.pi * (k + 1) / n
+        v = [[r * math.cos(a), r * math.sin(a), z] for r in (r_in / math.cos(math.pi / n), r_out)
+             for a in (a0, a1) for z in (-half_length, half_length)]
+        pieces.append(ConvexPiece(kind="hull", T_part_piece=np.eye(4), vertices_m=np.array(v)))
+    return pieces
+
+
+def _offset_box():
+    T = np.eye(4)
+    T[:3, 3] = (0.01, 0.0, 0.0)
+    return [ConvexPiece(kind="box", T_part_piece=T, half_extents_m=[0.01, 0.005, 0.002])]
+
+
+def _measured_breaking_m(pieces, inertia, limit_m=None):
+    """Largest gap (m) between the body's lowest point and a static hull slab at which Bullet
+    still reports a contact point after one collision pass (bisection to 1 nm)."""
+    import pybullet
+
+    slab = cube_hull((0.0, 0.0, -0.5), 0.5)
+    lowest = min(float((pc.T_part_piece[:3, :3] @ np.asarray(pc.vertices_m).T)[2].min())
+                 if pc.kind == "hull" else
+                 float(pc.T_part_piece[2, 3] - pc.half_extents_m[2]) for pc in pieces)
+
+    def touches(gap):
+        with BulletWorld(BALANCED) as world:
+            ground = world.add_body([slab], 0.0, np.eye(4))
+            T = np.eye(4)
+            T[2, 3] = gap - lowest
+            body = world.add_body(pieces, 0.01, T, inertia_kgm2=inertia)
+            if limit_m is not None:
+                world.limit_contact_breaking_m(body, limit_m)
+            expected = world.contact_breaking_m(body)
+            pybullet.performCollisionDetection(physicsClientId=world.client_id)
+            return world.contacts(body, ground).count > 0, expected
+
+    lo, hi = 0.0, 5e-3
+    expected = touches(0.0)[1]
+    while hi - lo > 1e-9:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if touches(mid)[0] else (lo, mid)
+    return lo, expected
+
+
+@pytest.mark.parametrize("shape", ["hull ring", "box off the centre of mass", "rotated axes"])
+def test_contact_breaking_distance_is_known_and_can_be_limited(shape):
+    # Bullet creates and keeps a contact point up to fraction x bounding radius; at PyBullet's
+    # default 0.02 that is 0.36 mm for a 20 mm ring of hulls (measured 360.3 um), more than a
+    # loose fit's gap. contact_breaking_m must predict the measured distance, and
+    # limit_contact_breaking_m must bring it down to the limit.
+    if shape == "hull ring":
+        pieces, inertia = _ring_of_hulls(), np.diag([1e-6, 1e-6, 2e-6])
+    else:
+        pieces, inertia = _offset_box(), np.diag([1e-6, 3e-6, 5e-6])
+        if shape == "rotated axes":  # principal axes 29 deg off the body frame's
+            c, s = math.cos(0.5), math.sin(0.5)
+            R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+            inertia = R @ inertia @ R.T
+    measured, expected = _measured_breaking_m(pieces, inertia)
+    assert measured == pytest.approx(expected, rel=1e-3)
+    assert measured > 2e-4  # the default: far more than a loose fit's radial gap
+    measured, expected = _measured_breaking_m(pieces, inertia, limit_m=40e-6)
+    assert expected == pytest.approx(40e-6, rel=1e-12)
+    assert measured == pytest.approx(40e-6, rel=1e-3)
+
+
+def test_contact_breaking_limit_is_checked():
+    with BulletWorld(BALANCED) as world:
+        body = world.add_body([cube_hull((0.0, 0.0, 0.0), 0.01)], 0.0, np.eye(4))
+        with pytest.raises(ValueError, match=r"distance_m: expected a finite value > 0, found 0"):
+            world.limit_contact_breaking_m(body, 0.0)
+        world.limit_contact_breaking_m(body, 1.0)  # above the default: unchanged
+        assert world.contact_breaking_m(body) == pytest.approx(0.02 * (math.sqrt(3) * 0.012))
+        world.step()
+        with pytest.raises(BulletError, match=r"expected before the first step, found 1 steps"):
+            world.limit_contact_breaking_m(body, 1e-5)

@@ -194,6 +194,38 @@ def test_levels_follow_the_fidelity_but_keep_holes_and_pins():
     assert len(accurate.body("shaft").pieces) == len(exact.pieces)
 
 
+def test_fits_the_preset_resolves_limit_the_contact_breaking_distance():
+    # gear_unit's collar and cover mate with H11/c11 (smallest diametral clearance 80 um) with
+    # dynamic partners, which BALANCED resolves (50 um) and FAST does not (0.4 mm, and its
+    # partners are static); pinhole_station's H7/g6 and H8/f7 fits are below BALANCED's
+    # resolution: PyBullet's default there.
+    plan, product, geo = plan_for("gear_unit")
+    k = plan.step("collar").index
+    scene = select_scene(plan, k, product, geo, BALANCED)
+    assert scene.contact_breaking_m == pytest.approx(40e-6, rel=1e-9)
+    assert scene.contact_breaking_partners == ("shaft",)
+    assert any("kept up to 0.040 mm apart" in n and "collar_on_shaft" in n for n in scene.notes)
+    assert scene.summary()["contact_breaking_m"] == scene.contact_breaking_m
+    cover = select_scene(plan, plan.step("cover").index, product, geo, BALANCED)
+    assert cover.contact_breaking_partners == ("post_1", "post_2")
+    assert select_scene(plan, k, product, geo, FAST).contact_breaking_m is None
+    off = select_scene(plan, k, product, geo, BALANCED,
+                       SceneSettings(limit_contact_breaking=False))
+    assert off.contact_breaking_m is None and not off.contact_breaking_partners
+    static = select_scene(plan, k, product, geo, BALANCED,
+                          SceneSettings(dynamic_partners=False))
+    assert static.contact_breaking_m is None  # a static shaft cannot be pushed
+    other_plan, other, other_geo = plan_for("pinhole_station")
+    assert all(select_scene(other_plan, s.index, other, other_geo, BALANCED).contact_breaking_m
+               is None for s in other_plan.steps if s.kind != "fixture")
+    # built: the collar-shaft pair within 40 um; 0.36 mm by default
+    for chosen, expected in ((scene, 40e-6), (off, 0.02 * 18.016e-3)):
+        with BulletWorld(BALANCED) as world:
+            ids = build_scene(world, chosen)
+            got = world.contact_breaking_m(ids["collar"], ids["shaft"])
+            assert got == pytest.approx(expected, rel=1e-4)
+
+
 def test_scene_summary_is_json_safe_and_names_every_reason():
     import json
 
