@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import pytest
-from sim_scenes import run_seed_cycle
 
 from asmplan.sim.fidelity import preset
+from asmplan.sim.scenarios import run_seed_cycle
 
 
 @pytest.fixture(scope="session")

@@ -6,12 +6,12 @@ import math
 
 import numpy as np
 import pytest
-from sim_scenes import box_inertia, box_piece
 
 from asmplan.parts.decompose import HoleSpec, block_with_holes_pieces
 from asmplan.parts.pieces import ConvexPiece
 from asmplan.sim.bullet import BulletError, BulletWorld
 from asmplan.sim.fidelity import BALANCED
+from asmplan.sim.scenarios import box_inertia, box_piece
 
 G = 9.81
 

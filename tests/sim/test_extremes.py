@@ -11,16 +11,6 @@ import math
 
 import numpy as np
 import pytest
-from sim_scenes import (
-    BoxPart,
-    G,
-    add_box_and_gripper,
-    box_inertia,
-    box_piece,
-    cylinder_inertia,
-    pin_insertion,
-    pose,
-)
 
 from asmplan.parts.decompose import HoleSpec, block_with_holes_pieces, pieces_mass_properties
 from asmplan.parts.pieces import ConvexPiece
@@ -30,6 +20,16 @@ from asmplan.sim.execute import execute_step, scene_warnings, settle
 from asmplan.sim.fidelity import ACCURATE, BALANCED, FAST
 from asmplan.sim.gripper import Gripper, GripperSpec
 from asmplan.sim.records import SuccessCriteria
+from asmplan.sim.scenarios import (
+    BoxPart,
+    G,
+    add_box_and_gripper,
+    box_inertia,
+    box_piece,
+    cylinder_inertia,
+    pin_insertion,
+    pose,
+)
 
 PENETRATION_BOUND_M = 0.5e-3
 

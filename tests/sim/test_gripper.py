@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sim_scenes import BoxPart, G, add_box_and_gripper, pose
 
 from asmplan.planner.trajectory import Segment, trajectory_from_segments
 from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.execute import execute_step
 from asmplan.sim.fidelity import BALANCED
 from asmplan.sim.gripper import FINGER_LINKS, Gripper, GripperSpec
+from asmplan.sim.scenarios import BoxPart, G, add_box_and_gripper, pose
 
 
 @pytest.mark.parametrize("force_N", [1.0, 3.0, 10.0])

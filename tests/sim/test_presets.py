@@ -7,9 +7,9 @@ Reproduce the table of docs/physics.md with
 from __future__ import annotations
 
 import pytest
-from sim_scenes import BoxPart, G, entered_depth_m, lift_slip_m, pin_insertion
 
 from asmplan.sim.fidelity import preset
+from asmplan.sim.scenarios import BoxPart, G, entered_depth_m, lift_slip_m, pin_insertion
 
 NAMES = ("fast", "balanced", "accurate")
 

@@ -8,9 +8,9 @@ A 100 g box is clamped with force F per finger and lifted with constant accelera
 from __future__ import annotations
 
 import pytest
-from sim_scenes import BoxPart, G, lift_slip_m
 
 from asmplan.sim.fidelity import BALANCED
+from asmplan.sim.scenarios import BoxPart, G, lift_slip_m
 
 PART = BoxPart(mass_kg=0.1, friction=0.5)
 MU = 1.0 * PART.friction

@@ -144,14 +144,13 @@ PIN_CLEARANCE = sw.ClearanceRange(MATE, 0.8e-3, 1.0e-3)  # diametral; FAST resol
 
 
 def pybullet_pin_insertion(fidelity_name: str, params: sw.SampleParams) -> dict:
-    """A real PyBullet pick-and-insert (tests/sim/sim_scenes.py, no chamfer) per sample.
+    """A real PyBullet pick-and-insert (asmplan.sim.scenarios.pin_insertion, no chamfer) per sample.
 
     The diametral clearance is the sample's; its lateral pose error magnitude becomes an
     offset of the place pose along x. The wall time is left out (not a physics result).
     """
-    from sim_scenes import pin_insertion
-
     from asmplan.sim.fidelity import preset
+    from asmplan.sim.scenarios import pin_insertion
 
     _, outcome = pin_insertion(preset(fidelity_name), 0.5 * params.clearance_m[MATE],
                                lateral_offset_m=params.pose_error(STEP).lateral_norm_m)

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from sim_scenes import R_DOWN, SEED_CSV, pose
+from sim_scenes import SEED_CSV
 
 from asmplan.planner.trajectory import (
     PHASES,
@@ -21,6 +21,7 @@ from asmplan.planner.trajectory import (
     seed_cycle,
     trajectory_from_segments,
 )
+from asmplan.sim.scenarios import R_DOWN, pose
 
 
 def random_rotations(n: int, seed: int) -> np.ndarray:
