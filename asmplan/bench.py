@@ -109,21 +109,6 @@ BOUNDS: tuple[Bound, ...] = _bounds()
 # scenarios (the physics validation scenes of tests/sim)
 
 
-def lift_slip_m(fidelity: Any, part: Any, force_N: float, accel_mps2: float) -> float:
-    """Largest slip (m) of ``part`` (a :class:`~asmplan.sim.scenarios.BoxPart`) in the
-    fingers, lifted at ``accel_mps2`` with ``force_N``."""
-    from .sim.scenarios import lift_slip_m as lift
-
-    return lift(fidelity, part, force_N, accel_mps2)
-
-
-def seed_cycle_outcome(fidelity: Any) -> Any:
-    """Simulate the seed paper's 4 s cycle on an 80 g box; returns the StepOutcome."""
-    from .sim.scenarios import run_seed_cycle
-
-    return run_seed_cycle(fidelity)[1]
-
-
 def slip_threshold_error(fidelity: Any, accel_mps2: float = 2.0, iterations: int = 8,
                          slip_limit_m: float = 0.2e-3) -> float:
     """Relative error of the bisected minimum holding force against ``m (g + a) / (2 mu)``.
@@ -131,7 +116,7 @@ def slip_threshold_error(fidelity: Any, accel_mps2: float = 2.0, iterations: int
     A 100 g box, mu = 1.0 (pads) x 0.5; bracket [0.5, 2] x analytic, ``iterations`` halvings
     (8: a step of 0.6 %).
     """
-    from .sim.scenarios import BoxPart, G
+    from .sim.scenarios import BoxPart, G, lift_slip_m
 
     part = BoxPart(mass_kg=0.1, friction=0.5)
     analytic = part.mass_kg * (G + accel_mps2) / (2 * 1.0 * part.friction)
@@ -237,6 +222,7 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
     log : called with one line per finished run (progress).
     """
     from .sim.fidelity import preset
+    from .sim.scenarios import run_seed_cycle
 
     say = log or (lambda _s: None)
     cases = [s * c for c in (INSERTION_CLEARANCES_M if clearances_m is None else clearances_m)
@@ -253,7 +239,7 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
     for name in presets:
         fid = preset(name)
         t0 = time.perf_counter()
-        seed = seed_cycle_outcome(fid)
+        _, seed, _ = run_seed_cycle(fid)
         figures.append(AccuracyFigure(name, "seed clamp cycle (4 s)", "seed_force_mae_N",
                                       float(seed.clamp_force_mae_N), "N", time.perf_counter() - t0))
         t0 = time.perf_counter()

@@ -123,7 +123,7 @@ def _check_step_frame(path: Path) -> None:
                             "the file looks truncated")
 
 
-def _read(path: Path, step_deflection_m: float = 1e-6):
+def _read(path: Path, step_deflection_m: float):
     """The file as an unprocessed trimesh. STEP surfaces are tessellated with a chordal
     deflection of ``step_deflection_m``: chords lie inside a curve, so a hole comes out up to
     that much narrower (with cascadio's default, 9.6 um on an 8 mm hole, which fails H7/g6)."""
@@ -224,7 +224,8 @@ def load_mesh_file(path: Path | str, scale: float = 1.0,
                             f"{settings.max_triangles:,}); simplify it before use")
     notes: list[str] = []
     if counted is not None and counted > settings.max_triangles:
-        mesh, note = _simplify(path, _read_triangles(path), settings.max_triangles)
+        mesh, note = _simplify(path, _read_triangles(path, settings.exact_tolerance_m),
+                               settings.max_triangles)
         notes.append(note)
         n_read = counted
     else:
@@ -262,7 +263,7 @@ def load_mesh_file(path: Path | str, scale: float = 1.0,
     return LoadedMesh(mesh, n_read, tuple(notes))
 
 
-def _read_triangles(path: Path) -> np.ndarray:
+def _read_triangles(path: Path, step_deflection_m: float) -> np.ndarray:
     """Triangles (n, 3, 3) of a file; binary STL straight from the bytes (no per-vertex work)."""
     if path.suffix.lower() == ".stl":
         size = path.stat().st_size
@@ -272,7 +273,7 @@ def _read_triangles(path: Path) -> np.ndarray:
             if 84 + 50 * n == size:
                 rec = np.fromfile(fh, dtype=[("n", "<f4", (3,)), ("v", "<f4", (3, 3)), ("a", "<u2")], count=n)
                 return np.asarray(rec["v"], dtype=np.float64)
-    mesh = _read(path)
+    mesh = _read(path, step_deflection_m)
     return np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]
 
 

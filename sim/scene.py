@@ -695,10 +695,12 @@ def step_scene(step: Step, layout: Layout, product: Product, geometry: Any, fide
 
     # mates and touching parts at the seated pose
     mate_partners: dict[str, list[str]] = {}
+    fits = []  # the held part's mates with parts in place
     for m in product.mates:
         other = m.hole_part if m.pin_part == held else m.pin_part if m.hole_part == held else None
         if other is not None and other in placed:
             mate_partners.setdefault(other, []).append(m.name)
+            fits.append(m)
     world = CollisionWorld(geometry.fcl_shapes)
     for name in [held, *sorted(placed)]:
         world.add(name, geometry.collision_model(name, "convex", measured=False),
@@ -739,11 +741,7 @@ def step_scene(step: Step, layout: Layout, product: Product, geometry: Any, fide
 
     # contact breaking distance: below the radial gap of fits the preset resolves, when a
     # fit partner is dynamic (a phantom contact can push it)
-    fits = [m for m in product.mates if held in (m.pin_part, m.hole_part)
-            and (m.hole_part if m.pin_part == held else m.pin_part) in placed]
-    movable = sorted({o for m in fits
-                      if (o := m.hole_part if m.pin_part == held else m.pin_part) in partners
-                      and partners[o].dynamic})
+    movable = sorted(o for o in mate_partners if o in partners and partners[o].dynamic)
     breaking: float | None = None
     breaking_partners: tuple[str, ...] = ()
     if s.limit_contact_breaking and movable:
