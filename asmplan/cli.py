@@ -12,6 +12,7 @@ import os
 import sys
 from collections.abc import Sequence
 
+from .fileio import OutputPathError
 from .knowledge.errors import ProductError
 
 # subcommand name -> module in asmplan.commands defining `register(subparsers)`; the parser
@@ -48,6 +49,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         n = len(exc.issues)
         print(f"asmplan: {n} error{'s' if n != 1 else ''} in the input; nothing was planned.",
               file=sys.stderr)
+        code = 2
+    except OutputPathError as exc:
+        print(f"asmplan: output {exc.path}: {exc.reason}. Nothing was written.", file=sys.stderr)
         code = 2
     except KeyboardInterrupt:
         print("asmplan: interrupted", file=sys.stderr)

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .fileio import atomic_write_json, staged_directory
+from .fileio import OutputFolder, atomic_write_json
 from .knowledge.loader import load_product
 from .knowledge.model import Product
 from .parts.models import ProductGeometry
@@ -157,16 +157,21 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
     return result
 
 
-def write_outputs(result: RunResult, outdir: str | Path, *, report: bool = True,
+def write_outputs(result: RunResult, outdir: str | Path | OutputFolder, *, report: bool = True,
                   progress: Progress | None = None) -> Path:
     """Write plan.json, results.json, sequence.json and the report into ``outdir``.
 
-    The folder is built beside ``outdir`` and swapped in at the end: a crash or Ctrl-C leaves
-    the previous ``outdir`` untouched.
+    ``outdir`` is a path, or an :class:`~asmplan.fileio.OutputFolder` reserved before the work
+    (as ``asmplan run`` does, so that a folder asmplan may not replace is refused before
+    anything is computed). The folder is built beside ``outdir`` and swapped in at the end: a
+    crash or Ctrl-C leaves the previous ``outdir`` untouched. Only a new, empty or
+    asmplan-written folder is ever replaced (:class:`~asmplan.fileio.OutputPathError`
+    otherwise).
     """
-    outdir = Path(outdir)
     t0 = time.perf_counter()
-    with staged_directory(outdir) as stage:
+    folder = outdir if isinstance(outdir, OutputFolder) else OutputFolder(outdir)
+    try:
+        stage = folder.stage
         if result.sequence is not None:
             atomic_write_json(stage / "sequence.json", result.sequence.as_dict() | {"timings_s": {}})
         if result.plan is not None:
@@ -187,5 +192,9 @@ def write_outputs(result: RunResult, outdir: str | Path, *, report: bool = True,
                                       list(result.warnings)), stage)
             if progress is not None:
                 progress("report", 1, 1, "")
+        target = folder.commit()
+    finally:
+        if folder is not outdir:
+            folder.close()
     result.timings_s["report"] = time.perf_counter() - t0
-    return outdir
+    return target if not isinstance(outdir, str | Path) else Path(outdir)

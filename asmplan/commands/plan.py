@@ -12,10 +12,11 @@ import sys
 import time
 from typing import Any, TextIO
 
+from ..fileio import check_output_file
 from ..knowledge.loader import load_product
 from ..planner.errors import PlanningError
 from ..planner.ompl_backend import PLANNERS
-from ..planner.plan import Plan, PlannerSettings
+from ..planner.plan import PLAN_FORMAT, Plan, PlannerSettings
 from .argtypes import nonnegative_int, positive_float
 
 
@@ -109,6 +110,7 @@ def run(args: argparse.Namespace) -> int:
     from ..planner.sequence import NoFeasibleSequenceError
 
     product = load_product(args.product)
+    check_output_file(args.output, json_format=PLAN_FORMAT)  # before any work
     settings = PlannerSettings(planner=args.planner, time_budget_s=args.time_budget,
                                seed=args.seed, collision_level=args.level)
     choices = None

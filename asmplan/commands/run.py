@@ -91,6 +91,7 @@ def summary_table(result: RunResult) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..fileio import OutputFolder
     from ..knowledge.loader import load_product
     from ..pipeline import RunSettings, run_product, write_outputs
     from ..planner.plan import PlannerSettings
@@ -100,8 +101,9 @@ def run(args: argparse.Namespace) -> int:
     settings = RunSettings(fidelity=args.fidelity, planner=PlannerSettings(seed=args.seed),
                            cull=not args.no_cull, workers=args.jobs)
     progress = StageProgress(sys.stderr)
-    result = run_product(product, settings, progress=progress)
-    write_outputs(result, args.out, report=not args.no_report, progress=progress)
+    with OutputFolder(args.out) as folder:  # checked and locked before any work
+        result = run_product(product, settings, progress=progress)
+        write_outputs(result, folder, report=not args.no_report, progress=progress)
     out = sys.stdout
     if result.plan is not None:
         print(summary_table(result), file=out)

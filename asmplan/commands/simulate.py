@@ -18,7 +18,7 @@ import json
 import sys
 from pathlib import Path
 
-from ..fileio import atomic_write_json
+from ..fileio import atomic_write_json, check_output_file
 from ..knowledge.errors import InputIssue, ProductError
 from ..knowledge.loader import load_product
 from ..planner.plan import Plan
@@ -90,6 +90,12 @@ def run(args: argparse.Namespace) -> int:
     plan = read_plan(args.plan)
     src = product_path(plan, args.plan)
     product = load_product(src, display_name=str(src))
+    out = Path(args.output)
+    timing_path = Path(args.timing) if args.timing else out.with_name(f"{out.stem}.timing.json")
+    from ..sim.simulate import RESULTS_FORMAT
+
+    check_output_file(out, json_format=RESULTS_FORMAT)  # before any work
+    check_output_file(timing_path)
     if plan.source_sha256:
         digest = hashlib.sha256(src.read_bytes()).hexdigest()
         if digest != plan.source_sha256:
@@ -116,9 +122,7 @@ def run(args: argparse.Namespace) -> int:
     except PlanProductMismatchError as exc:
         raise _plan_issue(args.plan, f"the plan does not match its product file {src}: "
                                      f"{exc}") from None
-    out = Path(args.output)
     results.write(out)
-    timing_path = Path(args.timing) if args.timing else out.with_name(f"{out.stem}.timing.json")
     atomic_write_json(timing_path, results.timing())
 
     n_sim = sum(s.simulated for s in results.steps)

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..fileio import atomic_write_json
+from ..fileio import atomic_write_json, claim_work_folder, mark_output_folder
 from ..knowledge.errors import InputIssue, ProductError
 from ..knowledge.loader import load_product
 from .argtypes import nonnegative_float, nonnegative_int, positive_int
@@ -114,6 +114,7 @@ def run(args: argparse.Namespace) -> int:
     from ..sim.fidelity import preset
 
     product = load_product(args.product)
+    claim_work_folder(args.out, [sw.JOURNAL_NAME])  # before any work: only a folder of ours
     spec = sw.SweepSpec(
         n_samples=args.samples, seed=args.seed, vary=args.vary,
         clearance_distribution=args.clearance_dist, friction_rel_sigma=args.friction_sigma,
@@ -202,6 +203,7 @@ def run(args: argparse.Namespace) -> int:
 
     write_sweep_report(out, product, summary, spec.to_dict(), fidelity.name, captures,
                        n_samples=len(samples))
+    mark_output_folder(out)
 
     print(f"{product.name}: {len(samples)} samples x {len(ps.steps)} steps at fidelity "
           f"{fidelity.name}, varying {', '.join(spec.vary) or 'nothing'} "
