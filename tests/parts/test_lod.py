@@ -172,6 +172,17 @@ def test_convex_pieces_have_the_volume_of_the_same_polygon_cut(sx, sy, sz, fx, f
     assert v_pieces == pytest.approx(cut.volume(), rel=1e-7, abs=1e-15)
 
 
+@pytest.mark.xfail(strict=True, reason=(
+    "known defect, found by random exploration: a shallow blind hole (1.39 mm) with a 0.32 mm "
+    "mouth chamfer 8 mm from a block corner: the convex pieces hold 0.03 mm^3 (1.7e-6 relative) "
+    "more than the polygon cut, so part of the chamfer is not cut from them; not yet explained"))
+def test_convex_pieces_of_a_shallow_chamfered_hole_near_a_corner_have_the_cut_volume():
+    inner = test_convex_pieces_have_the_volume_of_the_same_polygon_cut.hypothesis.inner_test
+    inner(sx=0.05, sy=0.04919053263687363, sz=0.006932168992444677, fx=-0.4134400259032307,
+          fy=-0.4134400259032307, fr=0.2597622686425183, fd=0.2, through=False,
+          fc=0.006932168992444677, c=1e-06)
+
+
 @settings(max_examples=15, deadline=None)
 @given(R=st.floats(0.005, 0.03), fr=st.floats(0.2, 0.7), L=st.floats(0.004, 0.05),
        c=st.sampled_from([5e-6, 0.2e-3]))
