@@ -12,7 +12,10 @@ the two parts of an interference or transition mate is expected up to half the d
 interference (plus the bound) and is listed as ``intended``; anything else is an
 interference, with the pair, the point, FCL's deepest local contact depth, and as ``depth_m``
 the smallest translation along a world axis that separates the two parts (the overlap of a
-part placed too low, for instance).
+part placed too low, for instance). The contact tolerance ``tolerance_m`` (1 um) applies to
+that separation too: two BVH surfaces lying face on face (a cover resting on a housing) give
+FCL triangle-local depths of micrometres, but parts that a translation of at most the
+tolerance separates touch; they do not interfere.
 
 A failed check is a result (``AssemblyCheck.success`` False with the reason), not an exception.
 """
@@ -206,6 +209,11 @@ def check_assembly(product: Product, geometry: ProductGeometry | None = None, le
             # report how far one part must move to clear the other (FCL's per-triangle depth
             # against a BVH is a local figure, not the overlap of the solids)
             sep, u = world.separation(c.a, c.b, tolerance_m)
+            if sep <= tolerance_m:
+                # face-on-face contact (a cover resting on a housing): FCL reported a
+                # triangle-local depth, but no translation of more than the contact tolerance
+                # is needed to part them, so they touch and do not interfere
+                continue
             interferences.append(Interference(c.a, c.b, sep, c.point_m, None, c.depth_m,
                                               tuple(float(x) for x in u)))
     t4 = time.perf_counter()

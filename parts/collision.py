@@ -477,12 +477,19 @@ class CollisionWorld:
 
     def sweep_blockers(self, name: str, direction: Sequence[float], distance_m: float,
                        others: Iterable[str] | None = None, step_m: float | None = None,
-                       tolerance_m: float = 1e-6) -> set[str]:
+                       tolerance_m: float = 1e-6, resting_m: float = 0.0) -> set[str]:
         """Names that ``name`` hits when translated by ``distance_m`` along ``direction``
         (world) from its current pose; the pose is left unchanged.
 
         Convex pieces sweep exactly (see the module docstring); BVH meshes are checked at
         steps of ``step_m`` (default ``min(1e-4, distance_m / 10)`` m) plus the end pose.
+
+        ``resting_m`` (m, default 0) makes the sweep contact-aware: a piece pair that already
+        overlaps at the start by at most ``resting_m`` is a resting contact whose overlap is
+        the model's error (a circumscribed polygon under a cylinder resting micrometres above
+        a rib), not material in the way; it blocks only when the motion deepens the overlap
+        by more than ``tolerance_m`` (sliding along or lifting off the support does not; moving
+        into it does). Deeper start overlaps block as before.
         """
         d = np.asarray(direction, dtype=float)
         norm = float(np.linalg.norm(d))
@@ -496,7 +503,8 @@ class CollisionWorld:
         targets = self._others(name, others)
         blockers: set[str] = set()
         # swept boxes first; a piece's swept FCL object is built when a box first meets one
-        pieces = [g for g in e.geoms if g.piece is not None]
+        piece_index = [i for i, g in enumerate(e.geoms) if g.piece is not None]
+        pieces = [e.geoms[i] for i in piece_index]
         swept_boxes = [_swept_aabb(g, e.T, delta) for g in pieces]
         swept_objs: list[object] = [None] * len(pieces)
         lo = np.minimum(e.bbox[0], e.bbox[0] + delta)
@@ -511,8 +519,14 @@ class CollisionWorld:
                     swept_objs[k] = _swept_geometry(pieces[k], e.T, delta)
                 obj = swept_objs[k]
                 for j in cand:
-                    if fcl.collide(obj, o.obj(j), _REQ_BOOL, fcl.CollisionResult()) and (
-                            tolerance_m <= 0 or _max_depth(obj, o.obj(j))[0] > tolerance_m):
+                    if not fcl.collide(obj, o.obj(j), _REQ_BOOL, fcl.CollisionResult()):
+                        continue
+                    allowed = tolerance_m
+                    if resting_m > 0:
+                        start = _max_depth(e.obj(piece_index[k]), o.obj(j))[0]
+                        if start <= resting_m:
+                            allowed = start + tolerance_m
+                    if allowed <= 0 or _max_depth(obj, o.obj(j))[0] > allowed:
                         hit = True
                         break
                 if hit:

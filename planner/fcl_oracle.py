@@ -18,6 +18,13 @@ pieces, not the report): the pieces ``ProductGeometry.collision_model(part, "con
 measured=False)`` caches, so the motion planner reuses them and their FCL geometry; pass
 ``measured=True`` to use (and cache) the measured models instead.
 
+Resting contacts: a part that rests on a support within micrometres (a gear 6 um above two
+ribs) may overlap it in the convex model, whose circumscribed polygons stand up to a few
+micrometres proud of the true surface, while ``asmplan check`` (exact) sees a gap. A start
+overlap of at most ``resting_tolerance_m`` is therefore a resting contact: it blocks only the
+directions that deepen it (into the support), not lifting off or sliding along it
+(:meth:`asmplan.parts.collision.CollisionWorld.sweep_blockers`, ``resting_m``).
+
 Sweeps start with a broad phase of their own: a part is swept only against the parts whose
 boxes meet its swept box, and not at all when there are none.
 """
@@ -52,15 +59,22 @@ class FclOracle:
         unmeasured convex pieces.
     tolerance_m : float
         Penetration depth ignored as touching, m (default 1 um).
+    resting_tolerance_m : float
+        Largest start overlap treated as a resting contact, m (default 20 um, the motion
+        planner's contact tolerance; 0 turns resting contacts off).
     min_step_m, max_step_m : float
         Bounds of the BVH mesh step, m.
     """
 
     def __init__(self, product: Product, geometry: ProductGeometry | None = None, *,
                  measured: bool = False, tolerance_m: float = 1e-6,
-                 min_step_m: float = 5e-6, max_step_m: float = 1e-4):
+                 min_step_m: float = 5e-6, max_step_m: float = 1e-4,
+                 resting_tolerance_m: float = 2e-5):
         if not tolerance_m >= 0:
             raise ValueError(f"tolerance_m: expected >= 0, found {tolerance_m!r}")
+        if not resting_tolerance_m >= 0:
+            raise ValueError(f"resting_tolerance_m: expected >= 0, found {resting_tolerance_m!r}")
+        self.resting_tolerance_m = resting_tolerance_m
         if not 0 < min_step_m <= max_step_m:
             raise ValueError(f"min_step_m, max_step_m: expected 0 < min <= max, found "
                              f"{min_step_m!r}, {max_step_m!r}")
@@ -93,7 +107,8 @@ class FclOracle:
             return frozenset()
         self.sweeps += 1
         return frozenset(self.world.sweep_blockers(part, direction, distance_m, others=near,
-                                                   step_m=self.step_m, tolerance_m=self.tolerance_m))
+                                                   step_m=self.step_m, tolerance_m=self.tolerance_m,
+                                                   resting_m=self.resting_tolerance_m))
 
 
 __all__ = ["FclOracle", "unmeasured_convex_model"]
