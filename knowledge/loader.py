@@ -23,6 +23,7 @@ from .model import (
     MALE_KINDS,
     AssemblyGroup,
     Feature,
+    Finger,
     Fixture,
     Geometry,
     GraspHint,
@@ -134,6 +135,7 @@ HANDLING = Map({
     "max_clamp_force": Field(Num(positive=True)),
     "max_speed": Field(Num("speed", positive=True)),
     "max_acceleration": Field(Num("acceleration", positive=True)),
+    "finger": Field(Str(expected="the name of one of the gripper's fingers")),
 }, name="handling knowledge")
 PART = Map({
     "name": Field(Str(expected="a part name"), required=True),
@@ -189,6 +191,11 @@ GRIPPER = Map({
     "max_force": Field(Num(positive=True), required=True),
     "min_force": Field(Num(nonnegative=True), default=0.0),
     "mass": Field(Num("mass", positive=True)),
+    "fingers": Field(ListOf(Map({"name": Field(Str(expected="a finger name"), required=True),
+                                 "size": Field(Vec(3, "length", positive=True), required=True),
+                                 "friction": Field(Num(positive=True, maximum=10.0),
+                                                   required=True)},
+                                name="a finger")), default=[]),
 }, name="a gripper")
 RESOURCES = Map({
     "gripper": Field(GRIPPER, required=True),
@@ -320,6 +327,15 @@ class _Builder:
         if resources is not None:
             for i, fx in enumerate(resources.fixtures):
                 self.check_part_ref(fx.holds, ("resources", "fixtures", i, "holds"))
+            known = [f.name for f in resources.gripper.fingers]
+            for i, raw in enumerate(raw_parts):
+                h = raw.get("handling") if isinstance(raw, dict) else None
+                finger = h.get("finger") if isinstance(h, dict) else None
+                if isinstance(finger, str) and finger not in known:
+                    names = ", ".join(known) or "none declared in resources.gripper.fingers"
+                    self.err(("parts", i, "handling", "finger"),
+                             f"expected one of the gripper's fingers ({names}), found "
+                             f'"{finger}"{did_you_mean(finger, known)}')
         if self.ctx.issues:
             raise ProductError(self.ctx.issues)
         assert resources is not None  # a missing resources section is an issue above
@@ -496,7 +512,7 @@ class _Builder:
         return Handling(
             insertion_direction=_unit(h["insertion_direction"]) if h["insertion_direction"] else None,
             grasp=grasp, max_clamp_force_N=h["max_clamp_force"], max_speed_m_s=h["max_speed"],
-            max_acceleration_m_s2=h["max_acceleration"])
+            max_acceleration_m_s2=h["max_acceleration"], finger=h["finger"])
 
     # -- knowledge and resources -----------------------------------------------------------
     def build_process(self, v: dict[str, Any] | None) -> Process:
@@ -519,7 +535,16 @@ class _Builder:
                      f"({g['max_force']:g} N), found {g['min_force']:g} N")
         gripper = Gripper(stroke_m=g["stroke"], finger_size_m=np.asarray(g["finger"]["size"]),
                           finger_friction=g["finger"]["friction"], max_force_N=g["max_force"],
-                          min_force_N=g["min_force"], mass_kg=g["mass"] or 0.5)
+                          min_force_N=g["min_force"], mass_kg=g["mass"] or 0.5,
+                          fingers=tuple(Finger(f["name"], np.asarray(f["size"]), f["friction"])
+                                        for f in g["fingers"]))
+        seen: dict[str, int] = {}
+        for i, f in enumerate(g["fingers"]):
+            if f["name"] in seen:
+                self.err(("resources", "gripper", "fingers", i, "name"),
+                         f'expected a unique finger name, found "{f["name"]}" again (fingers['
+                         f'{seen[f["name"]]}])')
+            seen.setdefault(f["name"], i)
         table = Table(np.asarray(v["table"]["size"]), v["table"]["friction"])
         fixtures = tuple(Fixture(f["name"], f["holds"], f["kind"]) for f in v["fixtures"])
         robot = None

@@ -16,7 +16,7 @@ pin's part is therefore the pin axis in the world (= minus the hole axis).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
@@ -177,6 +177,7 @@ class Handling:
     max_clamp_force_N: float | None = None
     max_speed_m_s: float | None = None
     max_acceleration_m_s2: float | None = None
+    finger: str | None = None  # a named pad set of the gripper (``Gripper.fingers``)
 
 
 @dataclass(frozen=True, eq=False)
@@ -246,9 +247,21 @@ class Process:
 
 
 @dataclass(frozen=True, eq=False)
+class Finger:
+    """A named set of finger pads the gripper can be fitted with (a short pad for small parts,
+    a long one for deep reaches): size (width x, thickness y, length z, m) and friction."""
+
+    name: str
+    size_m: np.ndarray
+    friction: float
+
+
+@dataclass(frozen=True, eq=False)
 class Gripper:
     """A parallel two-finger gripper. ``stroke_m`` is the largest opening between the pads;
-    ``finger_size_m`` is (width along x, thickness along the closing axis, length along z)."""
+    ``finger_size_m`` is (width along x, thickness along the closing axis, length along z).
+    ``fingers`` are alternative pad sets a part's handling may choose by name
+    (:meth:`Product.gripper_for`); ``finger_name`` names the pads fitted ("" = the default)."""
 
     stroke_m: float
     finger_size_m: np.ndarray
@@ -257,6 +270,17 @@ class Gripper:
     min_force_N: float = 0.0
     mass_kg: float = 0.5
     palm_size_m: np.ndarray = field(default_factory=lambda: np.array([0.04, 0.1, 0.03]))
+    fingers: tuple[Finger, ...] = ()
+    finger_name: str = ""
+
+    def with_finger(self, name: str) -> Gripper:
+        """This gripper fitted with the pad set ``name`` (KeyError naming the known ones)."""
+        for f in self.fingers:
+            if f.name == name:
+                return replace(self, finger_size_m=np.asarray(f.size_m, float),
+                               finger_friction=float(f.friction), finger_name=f.name)
+        raise KeyError(f'gripper has no finger "{name}"; it has: '
+                       f'{", ".join(f.name for f in self.fingers) or "none"}')
 
 
 @dataclass(frozen=True, eq=False)
@@ -319,6 +343,13 @@ class Product:
     def T_world_assembled(self, part: str) -> np.ndarray:
         """World pose (4, 4) of ``part`` in the assembled product."""
         return self.T_world_product @ self.part(part).T_product_part
+
+    def gripper_for(self, part: str) -> Gripper:
+        """The gripper as fitted for ``part``'s step: with the pad set its handling names
+        (``handling.finger``), else the default pads."""
+        name = self.part(part).handling.finger
+        g = self.resources.gripper
+        return g if name is None else g.with_finger(name)
 
     def is_fixtured(self, part: str) -> bool:
         return self.part(part).fixtured or any(f.holds == part for f in self.resources.fixtures)

@@ -57,6 +57,8 @@ CONTACT_BAND_M = 3e-4
 """Surface points within this distance of a pad's plane count as touching it, m."""
 
 _MIN_CONTACT_POINTS = 3
+_MAX_OFFSETS = 41  # pad centres per axis and candidate frame (the whole part, every depth)
+G_M_S2 = 9.81
 _EDGE_INSET_M = 1e-3  # a finger sticking out on one side keeps its other edge this far in
 _ANGLE_STEP_RAD = math.pi / 4
 
@@ -105,6 +107,50 @@ class GraspSurface:
         return cls(points_m=np.asarray(pts, float), normals=np.asarray(normals, float),
                    area_per_point_m2=float(mesh.area) / float(n_samples),
                    com_m=np.asarray(com_m, float), kind=kind)
+
+
+@dataclass(frozen=True)
+class GripLoad:
+    """What the grip must carry, for the stability term of the ranking (SI).
+
+    Parameters
+    ----------
+    mass_kg : float
+        The part's mass.
+    acceleration_m_s2 : float
+        The largest acceleration of the part while carried.
+    force_limit_N : float
+        The largest clamp force per finger (the gripper's, or the part's if lower).
+    safety_factor : float
+        The process's safety factor on the clamp force.
+    """
+
+    mass_kg: float
+    acceleration_m_s2: float
+    force_limit_N: float
+    safety_factor: float = 2.0
+
+    def __post_init__(self) -> None:
+        for name in ("mass_kg", "force_limit_N", "safety_factor"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"GripLoad.{name}: expected > 0, found {v!r}")
+        if not (math.isfinite(self.acceleration_m_s2) and self.acceleration_m_s2 >= 0):
+            raise ValueError(f"GripLoad.acceleration_m_s2: expected >= 0, found "
+                             f"{self.acceleration_m_s2!r}")
+
+    def torque_cost(self, lever_m: float, mu: float, pad_width_m: float) -> float:
+        """Share of the force limit that holding the moment about the closing axis adds.
+
+        The clamp force of :func:`asmplan.planner.timing.clamp_force`,
+        ``sf sqrt(F_t^2 + F_m^2)`` with ``F_t = m (g + a) / (2 mu)`` and the moment term
+        ``F_m = 2 m (g + a) d / (mu W)`` (the whole lever ``d`` taken as horizontal, the
+        worst case), minus its value for a centred grasp, over the force limit: 0 for a grasp
+        on the centre of mass, 1 when the moment alone uses the whole limit."""
+        load = self.mass_kg * (G_M_S2 + self.acceleration_m_s2)
+        slide = load / (2.0 * mu)
+        turn = 2.0 * load * lever_m / (mu * pad_width_m)
+        return self.safety_factor * (math.hypot(slide, turn) - slide) / self.force_limit_N
 
 
 def _clip(x: float, lo: float, hi: float) -> float:
@@ -187,9 +233,10 @@ def iter_grasps(
     finger_clearance_m: float = 3e-3,
     down_start_part: np.ndarray | None = None,
     down_final_part: np.ndarray | None = None,
-    min_overlap_m: float = 3e-3,
+    min_overlap_m: float | None = None,
     insertion_part: np.ndarray | None = None,
     lead_limit_m: float | None = None,
+    load: GripLoad | None = None,
 ) -> Iterator[Grasp]:
     """Antipodal grasps of one part in increasing cost (see the module docstring), lazily.
 
@@ -213,12 +260,17 @@ def iter_grasps(
         Opening added per finger beyond the part's width to approach and release, m.
     down_start_part, down_final_part : (3,) float arrays, optional
         World "down" (-z) expressed in the part frame at the start and final poses.
-    min_overlap_m : float
-        Smallest overlap of a pad with the part along the approach axis, m.
+    min_overlap_m : float, optional
+        Smallest overlap of a pad with the part along the approach axis, m; default 3 mm, or
+        a quarter of the pad length for pads shorter than 12 mm (a short pad on a 3 mm head).
     insertion_part, lead_limit_m : (3,) float array and float, optional
         The insertion direction in the part frame and how far along it (from the centre of
         mass, m) the fingers may reach: grasps whose fingertips would lead the part into its
         mate (reach past the pin roots, or past a hole part's leading face) cost 1 more.
+    load : GripLoad, optional
+        Mass, acceleration and force limit: the stability term of the ranking is then the
+        moment about the closing axis (:meth:`GripLoad.torque_cost`) instead of the centre
+        of mass offset over the part's size.
 
     Yields
     ------
@@ -226,6 +278,8 @@ def iter_grasps(
         In increasing cost; ties broken by generation order (deterministic).
     """
     W, T_f, L = (float(v) for v in gripper.finger_size_m)
+    if min_overlap_m is None:
+        min_overlap_m = min(3e-3, L / 4)
     palm = np.asarray(gripper.palm_size_m, float)
     mu = float(gripper.finger_friction) * float(part_friction)
     cos_cone = math.cos(math.atan(mu)) if mu > 0 else 1.0
@@ -284,11 +338,14 @@ def iter_grasps(
             zlo, zhi = float(XYZ[2].min()), float(XYZ[2].max())
             v_lo = zlo - L / 2 + min_overlap_m
             v_hi = zhi + L / 2 - min_overlap_m
-            vs = sorted({round(_clip(k * L / 6, v_lo, v_hi), 9) for k in range(-6, 7)},
-                        key=lambda v: (abs(v), v))
-            if xhi - xlo > W:  # the part is wider than a finger: slide along it too
+            # every depth the pads fit at: sixths of the finger length from the centre of
+            # mass out to the part's ends (a cover gripped at its edge, a post lying flat)
+            vs = sorted({round(_clip(k * L / 6, v_lo, v_hi), 9)
+                         for k in _steps(v_lo, v_hi, L / 6)}, key=lambda v: (abs(v), v))
+            if xhi - xlo > W:  # the part is wider than a finger: slide along all of it
                 us = sorted({round(_clip(k * W / 2, xlo + W / 2, xhi - W / 2), 9)
-                             for k in range(-2, 3)}, key=lambda u: (abs(u), u))
+                             for k in _steps(xlo + W / 2, xhi - W / 2, W / 2)},
+                            key=lambda u: (abs(u), u))
             else:  # narrower: centred, or sticking out on one side only (an edge 1 mm in)
                 us = sorted({0.0, round(xlo + _EDGE_INSET_M + W / 2, 9),
                              round(xhi - _EDGE_INSET_M - W / 2, 9)}, key=lambda u: (abs(u), u))
@@ -300,7 +357,8 @@ def iter_grasps(
                 reach = (abs(float(x @ ins)) * W / 2 + abs(float(c @ ins)) * (max_width / 2 + T_f)
                          + abs(float(a @ ins)) * L / 2)
             for u, v in centres:
-                known = base + math.hypot(u, v) / size
+                known = base + (math.hypot(u, v) / size if load is None
+                                else load.torque_cost(math.hypot(u, v), mu, W))
                 if reach is not None and float((u * x + v * a) @ ins) + reach > lead_limit_m:
                     known += 1.0
                 todo.append((known + area_floor, len(todo), fi, u, v, is_hint, known))
@@ -333,6 +391,15 @@ def iter_grasps(
         heapq.heappush(heap, (cost, serial, g, is_hint))
     while heap:
         yield make(heapq.heappop(heap))
+
+
+def _steps(lo: float, hi: float, step: float) -> range:
+    """Integer multiples ``k`` of ``step`` covering ``[lo, hi]`` (0 included), at most
+    ``_MAX_OFFSETS`` of them around 0 (a coarser step is not needed: the ends are clipped
+    onto ``lo`` and ``hi``)."""
+    k_lo = max(math.floor(lo / step), -(_MAX_OFFSETS // 2)) if lo < 0 else 0
+    k_hi = min(math.ceil(hi / step), _MAX_OFFSETS // 2) if hi > 0 else 0
+    return range(min(k_lo, 0), max(k_hi, 0) + 1)
 
 
 def grasp_candidates(part: str, surface: GraspSurface, gripper: Gripper,

@@ -63,7 +63,7 @@ from .errors import (
     PlanningError,
     StartInCollisionError,
 )
-from .grasp import GraspSurface, Rejections, collision_free, iter_grasps
+from .grasp import GraspSurface, GripLoad, Rejections, collision_free, iter_grasps
 from .ompl_backend import SE3Bounds, plan_se3
 from .plan import Grasp, Plan, PlannerSettings, Step
 from .timing import (
@@ -385,8 +385,8 @@ class Scene:
         for name in product.part_names:
             self._add(name, parts[name].model, self.poses[name])
             self._add(_coarse(name), parts[name].coarse, self.poses[name])
-        self._gripper_key: tuple[float, float] | None = None
-        self._gripper_models: dict[tuple[float, float], tuple[CollisionModel, ...]] = {}
+        self._gripper_key: tuple[float, float, str] | None = None
+        self._gripper_models: dict[tuple[float, float, str], tuple[CollisionModel, ...]] = {}
 
     def piece_boxes(self, model: CollisionModel) -> np.ndarray:
         """:func:`piece_boxes`, cached per model object."""
@@ -415,13 +415,14 @@ class Scene:
         self.world.set_pose(name, T)
         self.world.set_pose(_coarse(name), T)
 
-    def use_gripper(self, grasp: Grasp) -> None:
-        """(Re)build the three gripper bodies for ``grasp``'s widths."""
-        key = (round(grasp.width_m, 9), round(grasp.open_width_m, 9))
+    def use_gripper(self, grasp: Grasp, gripper: Gripper | None = None) -> None:
+        """(Re)build the three gripper bodies for ``grasp``'s widths (with ``gripper``'s pads;
+        default the product's gripper)."""
+        g = gripper if gripper is not None else self.product.resources.gripper
+        key = (round(grasp.width_m, 9), round(grasp.open_width_m, 9), g.finger_name)
         if key == self._gripper_key:
             return
         if key not in self._gripper_models:
-            g = self.product.resources.gripper
             t = float(g.finger_size_m[1])
             self._gripper_models[key] = (
                 gripper_model(g, grasp.width_m / 2), gripper_model(g, grasp.open_width_m / 2),
@@ -840,13 +841,16 @@ class MotionPlanner:
         lead = float(((data.points_m - data.com_m) @ ins_part).max())
         if spec.kind == "insert" and any(r.pin_part == part for r in spec.regions):
             lead -= spec.length_m
-        candidates = iter_grasps(part, data.surface, product.resources.gripper,
+        gripper = product.gripper_for(part)
+        candidates = iter_grasps(part, data.surface, gripper,
                                  product.part(part).handling.grasp,
                                  part_friction=product.part(part).friction,
                                  finger_clearance_m=settings.finger_clearance_m,
                                  down_start_part=down_s, down_final_part=down_f,
                                  insertion_part=ins_part,
-                                 lead_limit_m=lead - product.process.position_tolerance_m)
+                                 lead_limit_m=lead - product.process.position_tolerance_m,
+                                 load=GripLoad(data.mass_kg, clamp.acceleration_m_s2,
+                                               clamp.limit_N, product.process.safety_factor))
         if grasp is not None:
             candidates = iter([grasp])
         rejected = Rejections()
@@ -892,7 +896,7 @@ class MotionPlanner:
         position tolerance from every obstacle at both poses (a real gripper is only placed
         that accurately)."""
         scene = self.scene
-        scene.use_gripper(g)
+        scene.use_gripper(g, self.product.gripper_for(part))
         margin = self.product.process.position_tolerance_m
         span = scene.piece_boxes(scene.world.model(GRIPPER_SPAN)).reshape(-1, 3)
         for where, T_part in (("start pose", T_start), ("assembled pose", T_final)):
@@ -978,7 +982,7 @@ class MotionPlanner:
                                 gravity_lever_m=gravity_lever)
         except GripInfeasibleError as exc:
             raise _GraspFailed(f"grip infeasible for this grasp: {exc}", exc) from None
-        scene.use_gripper(g)
+        scene.use_gripper(g, product.gripper_for(part))
         t0 = time.perf_counter()
         T_gp = g.T_part_gripper
         T_pg = invert(T_gp)
@@ -1102,7 +1106,7 @@ class MotionPlanner:
         return step, ompl_s, check_s, checked
 
     def _radius(self, part: str, T_pg: np.ndarray, g: Grasp) -> float:
-        return carried_radius(self.product.resources.gripper, self.parts[part], T_pg, g)
+        return carried_radius(self.product.gripper_for(part), self.parts[part], T_pg, g)
 
 
 def unexcused(pairs: Sequence[CollidingPair], spec: InsertionSpec, part: str,
@@ -1421,11 +1425,11 @@ def dense_recheck(plan: Plan, product: Product, parts: dict[str, PartData] | Non
                 placed.append(step.part)
             continue
         g = step.grasp
-        scene.use_gripper(g)
+        scene.use_gripper(g, product.gripper_for(step.part))
         spec = insertion_spec(product, step.part, placed, step.insertion_direction, step.index)
         T_pg = invert(g.T_part_gripper)
         traj = step.trajectory
-        radius = carried_radius(product.resources.gripper, parts[step.part], T_pg, g)
+        radius = carried_radius(product.gripper_for(step.part), parts[step.part], T_pg, g)
         obstacles = scene.obstacles(step.part)
         T_all = traj.T_world_gripper
         t_all = traj.t_s

@@ -145,7 +145,7 @@ def clamp_force(product: Product, part: str, mass_kg: float,
     if not (math.isfinite(mass_kg) and mass_kg > 0):
         raise ValueError(f"mass_kg: expected > 0, found {mass_kg}")
     p = product.part(part)
-    gripper = product.resources.gripper
+    gripper = product.gripper_for(part)
     a = motion_limits(product, part).max_acceleration_m_s2 if acceleration_m_s2 is None \
         else float(acceleration_m_s2)
     mu = float(gripper.finger_friction) * float(p.friction)

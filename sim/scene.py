@@ -777,7 +777,7 @@ def step_scene(step: Step, layout: Layout, product: Product, geometry: Any, fide
 
     # obstacles near the swept space
     required = {held, *partners, *supports}
-    g = product.resources.gripper
+    g = product.gripper_for(step.part)
     open_half = 0.5 * max(step.grasp.open_width_m, step.grasp.width_m)
     grip_pts = np.concatenate([piece_corners(pc) for pc in gripper_model(g, open_half).pieces])
     # the hull's vertices bound the same boxes as all the mesh's vertices, with fewer points

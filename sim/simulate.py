@@ -407,7 +407,7 @@ def simulate_placed_step(step: Step, layout: Layout, product: Product, geometry:
     warns = step_warnings(scene, product, step, geometry, fidelity)
     traj = step.trajectory
     f_max = float(np.max(traj.clamp_force_N))
-    g_res = product.resources.gripper
+    g_res = product.gripper_for(step.part)
     if f_max > g_res.max_force_N:
         warns += (f"the trajectory commands {f_max:.2f} N per finger, more than the gripper's "
                   f"max_force {g_res.max_force_N:.2f} N; executed as planned",)

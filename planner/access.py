@@ -1,0 +1,199 @@
+"""Gripper access for the sequence planner: which placed parts keep the gripper from a step.
+
+The blocking table (:mod:`asmplan.planner.blocking`) says whether a PART can go in; this
+module says whether the GRIPPER can put it there. For a part ``p`` inserted along a
+direction, each of its best grasp candidates (:func:`asmplan.planner.grasp.iter_grasps`,
+ranked as the motion planner ranks them) is tried once, in the full assembly, and the set of
+other parts the gripper meets is stored:
+
+* the fingers, over the whole space they sweep while closing, at the assembled pose (and
+  their clearance: a part closer than the process's position tolerance counts as met);
+* the closed gripper swept straight along the insertion, from the pre-insertion pose to the
+  seated pose;
+* the open gripper swept straight back along its approach axis by the grasp standoff
+  (the retreat after release).
+
+A grasp whose fingers reach below the table top at the start or at the assembled pose is
+dropped (no order can help it). In any partial assembly ``S`` the step is reachable iff
+some grasp's set is disjoint from ``S``, a set operation like the blocking table, so the
+search stays exact and fast; only the minimal sets are kept.
+
+This is a screening model, not the motion planner: it looks at a bounded number of grasps
+(``max_grasps``), only at the assembled end of the step (start poses are fixed whatever the
+order), and straight segments only. An order it finds unreachable is therefore ranked last
+with the reason (``unreachable`` cost term), not pruned: the motion planner still tries it
+if every better order fails.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..knowledge.model import Product
+from .grasp import GripLoad, iter_grasps
+
+_Z = np.array([0.0, 0.0, 1.0])
+
+
+@dataclass(frozen=True)
+class AccessSettings:
+    """Settings of the gripper-access screening.
+
+    Parameters
+    ----------
+    max_grasps : int
+        Grasp candidates examined per part and insertion direction.
+    grasp_standoff_m : float
+        Retreat of the open gripper after release, m (the motion planner's
+        ``grasp_standoff_m``).
+    finger_clearance_m : float
+        Opening per finger beyond the part's width, m (``PlannerSettings``).
+    contact_tolerance_m : float
+        Penetration that counts as touching, m (``PlannerSettings``).
+    """
+
+    max_grasps: int = 24
+    grasp_standoff_m: float = 0.03
+    finger_clearance_m: float = 3e-3
+    contact_tolerance_m: float = 2e-5
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.max_grasps, int) and self.max_grasps >= 1):
+            raise ValueError(f"AccessSettings.max_grasps: expected an integer >= 1, found "
+                             f"{self.max_grasps!r}")
+        for name in ("grasp_standoff_m", "finger_clearance_m", "contact_tolerance_m"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"AccessSettings.{name}: expected > 0, found {v!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class Access:
+    """The gripper's access to one part's step along one insertion direction.
+
+    Parameters
+    ----------
+    part : str
+    options : tuple of frozenset of str
+        Minimal sets of other parts that block a grasp (one set per grasp family); the step
+        is reachable in a partial assembly disjoint from one of them. Empty: no grasp
+        candidate survives even in an empty cell (the fingers hit the table).
+    examined : int
+        Grasp candidates examined.
+    """
+
+    part: str
+    options: tuple[frozenset[str], ...]
+    examined: int
+
+    def reachable(self, present: frozenset[str] | set[str]) -> bool:
+        return any(not (o & present) for o in self.options)
+
+    def reason(self, present: frozenset[str] | set[str]) -> str:
+        """Why no grasp of the part is free with ``present`` placed ("" when one is)."""
+        if self.reachable(present):
+            return ""
+        if not self.options:
+            return (f"no grasp of {self.part} keeps the fingers above the table at its start "
+                    f"and assembled poses ({self.examined} candidates examined)")
+        met = sorted(set().union(*(o & present for o in self.options)))
+        return (f"the gripper cannot reach {self.part}: each of its {self.examined} best grasps "
+                f"meets {', '.join(met)} (at the seated pose, along the insertion or on the "
+                "retreat)")
+
+
+@dataclass
+class GripperAccess:
+    """Lazily computed :class:`Access` per (part, insertion direction), for one product."""
+
+    product: Product
+    geometry: Any | None = None
+    settings: AccessSettings = field(default_factory=AccessSettings)
+    _scene: Any = None
+    _parts: Any = None
+    _cache: dict[tuple[str, tuple[float, ...]], Access] = field(default_factory=dict)
+
+    def _setup(self) -> None:
+        from .motion import Scene, initial_layout, part_data
+        from .plan import PlannerSettings
+
+        ps = PlannerSettings(contact_tolerance_m=self.settings.contact_tolerance_m,
+                             finger_clearance_m=self.settings.finger_clearance_m)
+        self._parts = part_data(self.product, ps, self.geometry)
+        self._starts, _ = initial_layout(self.product, self._parts)
+        poses = {n: self.product.T_world_assembled(n) for n in self.product.part_names}
+        self._scene = Scene(self.product, self._parts, poses, ps.contact_tolerance_m)
+
+    def access(self, part: str, insertion: np.ndarray, pre_distance_m: float) -> Access:
+        """Access to ``part``'s step along the unit world ``insertion`` (3,), whose straight
+        insertion starts ``pre_distance_m`` before the seated pose."""
+        u = np.asarray(insertion, float) / float(np.linalg.norm(insertion))
+        key = (part, tuple(np.round(u, 6)), round(pre_distance_m, 6))
+        hit = self._cache.get(key)
+        if hit is None:
+            hit = self._compute(part, u, pre_distance_m)
+            self._cache[key] = hit
+        return hit
+
+    def _compute(self, part: str, u: np.ndarray, pre_distance_m: float) -> Access:
+        from .motion import GRIPPER_CLOSED, GRIPPER_OPEN, GRIPPER_SPAN, TABLE
+
+        if self._scene is None:
+            self._setup()
+        product, scene, s = self.product, self._scene, self.settings
+        data = self._parts[part]
+        gripper = product.gripper_for(part)
+        T_start = self._starts[part]
+        T_final = product.T_world_assembled(part)
+        others = [n for n in product.part_names if n != part]
+        margin = product.process.position_tolerance_m
+        limits_a = (product.part(part).handling.max_acceleration_m_s2
+                    or product.process.max_acceleration_m_s2)
+        limit_N = float(gripper.max_force_N)
+        if product.part(part).handling.max_clamp_force_N is not None:
+            limit_N = min(limit_N, float(product.part(part).handling.max_clamp_force_N))
+        cands = iter_grasps(part, data.surface, gripper, product.part(part).handling.grasp,
+                            part_friction=product.part(part).friction,
+                            finger_clearance_m=s.finger_clearance_m,
+                            down_start_part=T_start[:3, :3].T @ -_Z,
+                            down_final_part=T_final[:3, :3].T @ -_Z,
+                            load=GripLoad(data.mass_kg, float(limits_a), limit_N,
+                                          product.process.safety_factor))
+        sets: list[frozenset[str]] = []
+        examined = 0
+        for g in itertools.islice(cands, s.max_grasps):
+            examined += 1
+            scene.use_gripper(g, gripper)
+            span = scene.piece_boxes(scene.world.model(GRIPPER_SPAN)).reshape(-1, 3)
+            low = [float((span @ (T @ g.T_part_gripper)[2, :3] + (T @ g.T_part_gripper)[2, 3])
+                         .min()) for T in (T_start, T_final)]
+            if min(low) < margin:
+                continue  # the fingers reach below the table top: no order helps
+            G = T_final @ g.T_part_gripper
+            met = set(scene.hits(GRIPPER_SPAN, G, [TABLE, *others]))
+            if TABLE in met:
+                continue
+            d, who = scene.closest([(GRIPPER_SPAN, G)], others, margin)
+            if d < margin and who:
+                met.add(who)
+            G_pre = G.copy()
+            G_pre[:3, 3] -= u * pre_distance_m
+            delta = G[:3, 3] - G_pre[:3, 3]
+            if float(np.linalg.norm(delta)) > 0:
+                met |= scene.sweep([(GRIPPER_CLOSED, G_pre)], delta, others).get(
+                    GRIPPER_CLOSED, set())
+            back = -G[:3, 2] * s.grasp_standoff_m
+            met |= scene.sweep([(GRIPPER_OPEN, G)], back, others).get(GRIPPER_OPEN, set())
+            met.discard(TABLE)
+            sets.append(frozenset(met))
+        minimal = sorted({m for m in sets if not any(o < m for o in sets)},
+                         key=lambda m: (len(m), sorted(m)))
+        return Access(part, tuple(minimal), examined)
+
+
+__all__ = ["Access", "AccessSettings", "GripperAccess"]
