@@ -8,10 +8,9 @@ other parts the gripper meets is stored:
 
 * the fingers, over the whole space they sweep while closing, at the assembled pose (and
   their clearance: a part closer than the process's position tolerance counts as met);
-* the closed gripper swept straight along the insertion, from the pre-insertion pose to the
-  seated pose;
-* the open gripper swept straight back along its approach axis by the grasp standoff
-  (the retreat after release).
+* the closed gripper along the straight insertion, from the pre-insertion pose to the
+  seated pose, and the open gripper straight back along its approach axis by the grasp
+  standoff (the retreat after release), both at samples ``sample_step_m`` apart.
 
 A grasp whose fingers reach below the table top at the start or at the assembled pose is
 dropped (no order can help it). In any partial assembly ``S`` the step is reachable iff
@@ -47,7 +46,10 @@ class AccessSettings:
     Parameters
     ----------
     max_grasps : int
-        Grasp candidates examined per part and insertion direction.
+        Grasps kept per part and insertion direction: candidates whose gripper meets a part
+        that must precede the step anyway are skipped (no order can free them).
+    max_candidates : int
+        Grasp candidates examined at most per part and insertion direction.
     grasp_standoff_m : float
         Retreat of the open gripper after release, m (the motion planner's
         ``grasp_standoff_m``).
@@ -55,18 +57,25 @@ class AccessSettings:
         Opening per finger beyond the part's width, m (``PlannerSettings``).
     contact_tolerance_m : float
         Penetration that counts as touching, m (``PlannerSettings``).
+    sample_step_m : float
+        Spacing of the checked poses along the insertion and the retreat, m (a screening
+        step: the motion planner proves the chosen motion exactly).
     """
 
     max_grasps: int = 24
+    max_candidates: int = 200
     grasp_standoff_m: float = 0.03
     finger_clearance_m: float = 3e-3
     contact_tolerance_m: float = 2e-5
+    sample_step_m: float = 2e-3
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.max_grasps, int) and self.max_grasps >= 1):
-            raise ValueError(f"AccessSettings.max_grasps: expected an integer >= 1, found "
-                             f"{self.max_grasps!r}")
-        for name in ("grasp_standoff_m", "finger_clearance_m", "contact_tolerance_m"):
+        for name in ("max_grasps", "max_candidates"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and v >= 1):
+                raise ValueError(f"AccessSettings.{name}: expected an integer >= 1, found {v!r}")
+        for name in ("grasp_standoff_m", "finger_clearance_m", "contact_tolerance_m",
+                     "sample_step_m"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"AccessSettings.{name}: expected > 0, found {v!r}")
@@ -85,11 +94,16 @@ class Access:
         candidate survives even in an empty cell (the fingers hit the table).
     examined : int
         Grasp candidates examined.
+    below_table, meets_predecessors : int
+        Candidates dropped because the fingers reach below the table top (at the start or
+        the assembled pose), or because the gripper meets a part every order places first.
     """
 
     part: str
     options: tuple[frozenset[str], ...]
     examined: int
+    below_table: int = 0
+    meets_predecessors: int = 0
 
     def reachable(self, present: frozenset[str] | set[str]) -> bool:
         return any(not (o & present) for o in self.options)
@@ -99,12 +113,14 @@ class Access:
         if self.reachable(present):
             return ""
         if not self.options:
-            return (f"no grasp of {self.part} keeps the fingers above the table at its start "
-                    f"and assembled poses ({self.examined} candidates examined)")
+            return (f"no grasp of {self.part} can be used in any order: of {self.examined} "
+                    f"candidates screened, {self.below_table} put the fingers below the table "
+                    f"top (at the start or the assembled pose) and {self.meets_predecessors} "
+                    "meet a part that must be placed before it")
         met = sorted(set().union(*(o & present for o in self.options)))
-        return (f"the gripper cannot reach {self.part}: each of its {self.examined} best grasps "
-                f"meets {', '.join(met)} (at the seated pose, along the insertion or on the "
-                "retreat)")
+        return (f"the gripper cannot reach {self.part}: every grasp screened ({self.examined} "
+                f"candidates) meets {', '.join(met)} or a part that must precede "
+                f"{self.part} (at the seated pose, along the insertion or on the retreat)")
 
 
 @dataclass
@@ -116,7 +132,7 @@ class GripperAccess:
     settings: AccessSettings = field(default_factory=AccessSettings)
     _scene: Any = None
     _parts: Any = None
-    _cache: dict[tuple[str, tuple[float, ...]], Access] = field(default_factory=dict)
+    _cache: dict[tuple[Any, ...], Access] = field(default_factory=dict)
 
     def _setup(self) -> None:
         from .motion import Scene, initial_layout, part_data
@@ -129,18 +145,21 @@ class GripperAccess:
         poses = {n: self.product.T_world_assembled(n) for n in self.product.part_names}
         self._scene = Scene(self.product, self._parts, poses, ps.contact_tolerance_m)
 
-    def access(self, part: str, insertion: np.ndarray, pre_distance_m: float) -> Access:
+    def access(self, part: str, insertion: np.ndarray, pre_distance_m: float,
+               required: frozenset[str] = frozenset()) -> Access:
         """Access to ``part``'s step along the unit world ``insertion`` (3,), whose straight
-        insertion starts ``pre_distance_m`` before the seated pose."""
+        insertion starts ``pre_distance_m`` before the seated pose; ``required`` are the parts
+        every order places before it (grasps meeting them are skipped)."""
         u = np.asarray(insertion, float) / float(np.linalg.norm(insertion))
-        key = (part, tuple(np.round(u, 6)), round(pre_distance_m, 6))
+        key = (part, tuple(np.round(u, 6)), round(pre_distance_m, 6), tuple(sorted(required)))
         hit = self._cache.get(key)
         if hit is None:
-            hit = self._compute(part, u, pre_distance_m)
+            hit = self._compute(part, u, pre_distance_m, frozenset(required))
             self._cache[key] = hit
         return hit
 
-    def _compute(self, part: str, u: np.ndarray, pre_distance_m: float) -> Access:
+    def _compute(self, part: str, u: np.ndarray, pre_distance_m: float,
+                 required: frozenset[str]) -> Access:
         from .motion import GRIPPER_CLOSED, GRIPPER_OPEN, GRIPPER_SPAN, TABLE
 
         if self._scene is None:
@@ -165,35 +184,52 @@ class GripperAccess:
                             load=GripLoad(data.mass_kg, float(limits_a), limit_N,
                                           product.process.safety_factor))
         sets: list[frozenset[str]] = []
-        examined = 0
-        for g in itertools.islice(cands, s.max_grasps):
+        examined = below = before = 0
+        for g in itertools.islice(cands, s.max_candidates):
+            if len(sets) >= s.max_grasps:
+                break
             examined += 1
             scene.use_gripper(g, gripper)
             span = scene.piece_boxes(scene.world.model(GRIPPER_SPAN)).reshape(-1, 3)
             low = [float((span @ (T @ g.T_part_gripper)[2, :3] + (T @ g.T_part_gripper)[2, 3])
                          .min()) for T in (T_start, T_final)]
             if min(low) < margin:
+                below += 1
                 continue  # the fingers reach below the table top: no order helps
             G = T_final @ g.T_part_gripper
             met = set(scene.hits(GRIPPER_SPAN, G, [TABLE, *others]))
             if TABLE in met:
+                below += 1
                 continue
             d, who = scene.closest([(GRIPPER_SPAN, G)], others, margin)
             if d < margin and who:
                 met.add(who)
-            G_pre = G.copy()
-            G_pre[:3, 3] -= u * pre_distance_m
-            delta = G[:3, 3] - G_pre[:3, 3]
-            if float(np.linalg.norm(delta)) > 0:
-                met |= scene.sweep([(GRIPPER_CLOSED, G_pre)], delta, others).get(
-                    GRIPPER_CLOSED, set())
-            back = -G[:3, 2] * s.grasp_standoff_m
-            met |= scene.sweep([(GRIPPER_OPEN, G)], back, others).get(GRIPPER_OPEN, set())
+            # the straight insertion (closed) and the retreat (open), sampled
+            met |= _segment_hits(scene, GRIPPER_CLOSED, G, -u * pre_distance_m, others,
+                                 s.sample_step_m)
+            met |= _segment_hits(scene, GRIPPER_OPEN, G, -G[:3, 2] * s.grasp_standoff_m,
+                                 others, s.sample_step_m)
             met.discard(TABLE)
-            sets.append(frozenset(met))
+            if met & required:
+                before += 1
+            else:
+                sets.append(frozenset(met))
         minimal = sorted({m for m in sets if not any(o < m for o in sets)},
                          key=lambda m: (len(m), sorted(m)))
-        return Access(part, tuple(minimal), examined)
+        return Access(part, tuple(minimal), examined, below, before)
+
+
+def _segment_hits(scene: Any, body: str, T: np.ndarray, delta: np.ndarray,
+                  obstacles: list[str], step_m: float) -> set[str]:
+    """Obstacles that ``body`` meets at samples (``step_m`` apart) of the straight segment
+    from ``T`` to ``T`` moved by ``delta`` (world, m)."""
+    n = max(1, math.ceil(float(np.linalg.norm(delta)) / step_m))
+    out: set[str] = set()
+    for k in range(1, n + 1):
+        Tk = T.copy()
+        Tk[:3, 3] += delta * (k / n)
+        out.update(scene.hits(body, Tk, [o for o in obstacles if o not in out]))
+    return out
 
 
 __all__ = ["Access", "AccessSettings", "GripperAccess"]

@@ -342,9 +342,11 @@ def iter_grasps(
             # mass out to the part's ends (a cover gripped at its edge, a post lying flat)
             vs = sorted({round(_clip(k * L / 6, v_lo, v_hi), 9)
                          for k in _steps(v_lo, v_hi, L / 6)}, key=lambda v: (abs(v), v))
-            if xhi - xlo > W:  # the part is wider than a finger: slide along all of it
+            if xhi - xlo > W:  # the part is wider than a finger: slide along all of it,
+                # and past either end by three quarters of a finger (a shaft's head)
                 us = sorted({round(_clip(k * W / 2, xlo + W / 2, xhi - W / 2), 9)
-                             for k in _steps(xlo + W / 2, xhi - W / 2, W / 2)},
+                             for k in _steps(xlo + W / 2, xhi - W / 2, W / 2)}
+                            | {round(xlo - W / 4, 9), round(xhi + W / 4, 9)},
                             key=lambda u: (abs(u), u))
             else:  # narrower: centred, or sticking out on one side only (an edge 1 mm in)
                 us = sorted({0.0, round(xlo + _EDGE_INSET_M + W / 2, 9),

@@ -65,11 +65,12 @@ import numpy as np
 from ..knowledge.errors import InputIssue, ProductError
 from ..knowledge.graphs import add_precedence, precedence_graph
 from ..knowledge.model import PrecedenceRule, Product
+from .access import GripperAccess
 from .blocking import BlockingTable, GeometryOracle, blocking_table, mate_insertion_direction
 from .errors import PlanningError
 
 COST_TERMS: tuple[str, ...] = ("reorientations", "direction_changes", "tool_changes", "travel_m",
-                               "stability_risk")
+                               "stability_risk", "unreachable")
 """Names of the cost terms, in the order of :attr:`RankedSequence.terms`."""
 
 
@@ -95,6 +96,13 @@ class SequenceSettings:
         Per metre of travel (about 1 / (0.25 m/s)), default 4 s/m.
     stability_risk_s : float
         Per part held by mates only (nothing under it), default 5 s.
+    unreachable_s : float
+        Per step the gripper cannot do in that order (no screened grasp is free of the parts
+        already placed, :mod:`asmplan.planner.access`), default 600 s: such an order ranks
+        below every order the gripper can do, its reason kept, and is still tried last.
+    gripper_access : bool
+        Screen every step for gripper access (default True; False: the order ignores the
+        gripper and ``unreachable`` stays 0).
     top_k : int
         Number of ranked sequences to return.
     max_states : int
@@ -103,6 +111,11 @@ class SequenceSettings:
     beam_width, max_beam_width : int
         Initial beam width (nodes kept per depth) and the widest the beam may grow to when it
         dead-ends (it doubles).
+    collapse_identical : bool
+        List orders that differ only in the order of identical parts once (default True).
+    max_identical_pool : int
+        The search keeps up to this many orders per state to find ``top_k`` distinct ones
+        when identical parts are collapsed (default 240).
     angle_tolerance_rad : float
         Two directions closer than this are the same (no reorientation, no direction change).
     support_probe_m : float
@@ -116,21 +129,25 @@ class SequenceSettings:
     tool_change_s: float = 8.0
     travel_s_per_m: float = 4.0
     stability_risk_s: float = 5.0
+    unreachable_s: float = 600.0
+    gripper_access: bool = True
     top_k: int = 5
     max_states: int = 20_000
     beam_width: int = 64
     max_beam_width: int = 1024
+    collapse_identical: bool = True
+    max_identical_pool: int = 240
     angle_tolerance_rad: float = math.radians(1.0)
     support_probe_m: float = 1.0e-4
     table_contact_m: float = 1.0e-4
 
     def __post_init__(self) -> None:
         for name in ("reorientation_s", "direction_change_s", "tool_change_s", "travel_s_per_m",
-                     "stability_risk_s"):
+                     "stability_risk_s", "unreachable_s"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"SequenceSettings.{name}: expected a finite weight >= 0, found {v!r}")
-        for name in ("top_k", "max_states", "beam_width", "max_beam_width"):
+        for name in ("top_k", "max_states", "beam_width", "max_beam_width", "max_identical_pool"):
             v = getattr(self, name)
             if not (isinstance(v, int) and v >= 1):
                 raise ValueError(f"SequenceSettings.{name}: expected an integer >= 1, found {v!r}")
@@ -147,7 +164,7 @@ class SequenceSettings:
         """Weight of each cost term (:data:`COST_TERMS`), seconds per unit."""
         return {"reorientations": self.reorientation_s, "direction_changes": self.direction_change_s,
                 "tool_changes": self.tool_change_s, "travel_m": self.travel_s_per_m,
-                "stability_risk": self.stability_risk_s}
+                "stability_risk": self.stability_risk_s, "unreachable": self.unreachable_s}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -247,6 +264,8 @@ class SequenceStep:
         (held by mates only: one unit of stability risk).
     tool : str
         ``"gripper"`` or ``"fixture:<name>"``.
+    unreachable : str
+        Why the gripper cannot do this step in this order ("" when it can).
     """
 
     part: str
@@ -256,12 +275,14 @@ class SequenceStep:
     held_by: tuple[str, ...]
     stability: str
     tool: str
+    unreachable: str = ""
 
     def as_dict(self) -> dict[str, Any]:
         return {"part": self.part, "insertion": self.insertion_label,
                 "insertion_vector": [round(float(c), 6) for c in self.insertion],
                 "free_insertions": list(self.free_insertions), "held_by": list(self.held_by),
-                "stability": self.stability, "tool": self.tool}
+                "stability": self.stability, "tool": self.tool,
+                "unreachable": self.unreachable}
 
 
 @dataclass(frozen=True, eq=False)
@@ -613,8 +634,10 @@ class _Compiled:
     """The planning problem as bit masks (part i <-> bit i, product order)."""
 
     def __init__(self, product: Product, table: BlockingTable, graph: nx.DiGraph,
-                 settings: SequenceSettings):
+                 settings: SequenceSettings, access: GripperAccess | None = None):
         self.product, self.table, self.settings = product, table, settings
+        self.access = access if settings.gripper_access else None
+        self._reach: dict[tuple[int, int], list[int]] = {}
         names = list(product.part_names)
         self.names = names
         self.n = len(names)
@@ -771,7 +794,34 @@ class _Compiled:
             tch = 0.0 if self.tool[last] == self.tool[p] else 1.0
         travel = self.travel[last][p]  # last = -1 picks the home row
         risk = 0.0 if (self.stable_alone[p] or self.support[p] & done) else 1.0
-        return (reo, dch, tch, travel, risk)
+        return (reo, dch, tch, travel, risk, 0.0 if self.reachable(p, dp, done) else 1.0)
+
+    # -- gripper access ----------------------------------------------------------------------
+    def _access(self, p: int, d: int) -> Any:
+        name = self.names[p]
+        ins = self.table.directions[name][d].insertion
+        pre = self.product.process.approach_distance_m + max(
+            (self.product.feature(m.pin_part, m.pin_feature).length_m for m in self.product.mates
+             if name in (m.pin_part, m.hole_part)), default=0.0)
+        required = frozenset(self.bits(self.pred[p]))
+        return self.access.access(name, ins, pre, required)
+
+    def reachable(self, p: int, d: int, done: int) -> bool:
+        """Whether some screened grasp of part p (inserted along direction d) is free of
+        every part in ``done`` (always True for fixtured parts or without screening)."""
+        if self.access is None or self.product.is_fixtured(self.names[p]):
+            return True
+        masks = self._reach.get((p, d))
+        if masks is None:
+            acc = self._access(p, d)
+            masks = [sum(1 << self.idx[q] for q in o) for o in acc.options]
+            self._reach[(p, d)] = masks
+        return any(not (m & done) for m in masks)
+
+    def unreachable_reason(self, p: int, d: int, done: int) -> str:
+        if self.reachable(p, d, done):
+            return ""
+        return self._access(p, d).reason(frozenset(self.bits(done)))
 
     def extend(self, lab: _Label, done: int, p: int, d: int) -> _Label:
         last = lab.order[-1] if lab.order else -1
@@ -854,7 +904,8 @@ def _exhaustive(c: _Compiled, k: int) -> tuple[list[_Label], int, int, list[tupl
     # exact top-k over (state, last part): labels of one (state, last) share the direction of
     # the last step, so a successor adds the same cost to all of them (sorted lists stay
     # sorted) and each new bucket is a k-way merge of its sources
-    labels: dict[tuple[int, int], list[_Label]] = {(0, -1): [_Label(0.0, (), (), (), (0.0,) * 5)]}
+    zero = (0.0,) * len(COST_TERMS)
+    labels: dict[tuple[int, int], list[_Label]] = {(0, -1): [_Label(0.0, (), (), (), zero)]}
     for layer in layers:
         pending: dict[tuple[int, int], list[tuple[list[_Label], float, tuple[float, ...], int]]] = {}
         for done in layer:
@@ -902,7 +953,7 @@ def _exhaustive(c: _Compiled, k: int) -> tuple[list[_Label], int, int, list[tupl
 
 def _beam(c: _Compiled, width: int, k: int) -> tuple[list[_Label], int, int]:
     """Beam search; returns (complete labels best first, states expanded, last dead state)."""
-    nodes: list[tuple[int, _Label]] = [(0, _Label(0.0, (), (), (), (0.0,) * 5))]
+    nodes: list[tuple[int, _Label]] = [(0, _Label(0.0, (), (), (), (0.0,) * len(COST_TERMS)))]
     expanded = 0
     for _depth in range(c.n):
         buckets: dict[tuple[int, int], list[_Label]] = {}
@@ -951,7 +1002,7 @@ def _dfs(c: _Compiled) -> tuple[_Label | None, int, int]:
             dead.add(T)
         return None
 
-    found = rec(0, _Label(0.0, (), (), (), (0.0,) * 5))
+    found = rec(0, _Label(0.0, (), (), (), (0.0,) * len(COST_TERMS)))
     return found, len(dead), smallest[0]
 
 
@@ -974,7 +1025,7 @@ def _ranked(c: _Compiled, labels: list[_Label]) -> tuple[RankedSequence, ...]:
             else:
                 held, stab = tuple(c.bits(c.holders[p] & done)), "mated"
             steps.append(SequenceStep(name, direction.insertion, direction.insertion_label, free,
-                                      held, stab, c.tool[p]))
+                                      held, stab, c.tool[p], c.unreachable_reason(p, d, done)))
             done |= 1 << p
         terms = dict(zip(COST_TERMS, lab.terms, strict=True))
         breakdown = {t: c.settings.weights[t] * terms[t] for t in COST_TERMS}
@@ -999,6 +1050,56 @@ def _first_blocking_rule(product: Product, table: BlockingTable, settings: Seque
         if _dfs(c)[0] is not None:
             return rule
     return None
+
+
+def _part_signature(product: Product, name: str) -> str:
+    """What makes a part interchangeable with another: shape, material, mass, friction,
+    features and handling (not its name, pose or start)."""
+    p = product.part(name)
+
+    def r(a: Any) -> Any:
+        return None if a is None else np.round(np.asarray(a, float), 9).tolist()
+
+    g = p.geometry
+    geo = (g.kind, [(q.shape, r(q.T_part_shape), r(q.size_m), q.diameter_m, q.length_m)
+                    for q in g.primitives],
+           [(r(h.origin_m), r(h.axis), h.diameter_m, h.depth_m, h.through, h.chamfer_m)
+            for h in g.holes],
+           [(r(q.origin_m), r(q.axis), q.diameter_m, q.length_m, q.chamfer_m) for q in g.pins],
+           str(g.mesh_file), g.mesh_scale)
+    feats = sorted((f.kind, r(f.origin_m), r(f.axis), f.diameter_m, f.length_m, f.chamfer_m,
+                    f.through) for f in p.features)
+    h = p.handling
+    hint = None if h.grasp is None else (r(h.grasp.closing_axis), r(h.grasp.approach_axis),
+                                         h.grasp.width_m, r(h.grasp.offset_m))
+    hand = (r(h.insertion_direction), hint, h.max_clamp_force_N, h.max_speed_m_s,
+            h.max_acceleration_m_s2, h.finger)
+    mat = None if p.material is None else p.material.name
+    return repr((geo, feats, hand, mat, p.mass_kg, p.friction, product.is_fixtured(name)))
+
+
+def identical_parts(product: Product) -> list[tuple[str, ...]]:
+    """Groups (of two or more, product order) of interchangeable parts: the same shape,
+    material, features and handling (four identical dowels)."""
+    groups: dict[str, list[str]] = {}
+    for n in product.part_names:
+        groups.setdefault(_part_signature(product, n), []).append(n)
+    return [tuple(g) for g in groups.values() if len(g) > 1]
+
+
+def _distinct(c: _Compiled, labels: list[_Label], classes: list[tuple[str, ...]]
+              ) -> list[_Label]:
+    """The labels (best first) with orders that differ only in the order of identical parts
+    collapsed to the best of them."""
+    cls = {n: f"#{k}" for k, g in enumerate(classes) for n in g}
+    seen: set[tuple[str, ...]] = set()
+    out = []
+    for lab in labels:
+        key = tuple(cls.get(c.names[p], c.names[p]) for p in lab.order)
+        if key not in seen:
+            seen.add(key)
+            out.append(lab)
+    return out
 
 
 def plan_sequence(product: Product, oracle: GeometryOracle | None = None,
@@ -1034,10 +1135,16 @@ def plan_sequence(product: Product, oracle: GeometryOracle | None = None,
     t1 = time.perf_counter()
     timings["blocking"] = t1 - t0
     graph = derive_precedence(product, table)
-    c = _Compiled(product, table, graph, settings)
+    access = GripperAccess(product, getattr(oracle, "geometry", None)) \
+        if settings.gripper_access else None
+    c = _Compiled(product, table, graph, settings, access)
     t2 = time.perf_counter()
     timings["precedence"] = t2 - t1
-    k = settings.top_k
+    classes = identical_parts(product) if settings.collapse_identical else []
+    # orders that differ only in the order of identical parts are one process: search deep
+    # enough to return top_k distinct ones
+    k = min(settings.top_k * math.prod(math.factorial(len(g)) for g in classes),
+            max(settings.top_k, settings.max_identical_pool))
     necessary: list[tuple[str, str]] = []
     result = _exhaustive(c, k)
     if result is not None:
@@ -1069,6 +1176,7 @@ def plan_sequence(product: Product, oracle: GeometryOracle | None = None,
                 + "; ".join(f"{p}: {r}" for p, r in sorted(c.reasons(done).items())),
                 [{"dead_end": c.bits(done), "reasons": c.reasons(done)}])
         raise NoFeasibleSequenceError(product.name, c.bits(done), c.reasons(done))
+    labels = _distinct(c, labels, classes)[: settings.top_k]
     return SequencePlan(product=product.name, sequences=_ranked(c, labels), precedence=graph,
                         blocking=table, method=method, feasible_count=count, states=states,
                         necessary=tuple(necessary), settings=settings, timings_s=timings)

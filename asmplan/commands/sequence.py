@@ -21,7 +21,7 @@ from .argtypes import positive_int
 # cost term -> SequenceSettings field holding its weight
 WEIGHT_FIELDS = {"reorientations": "reorientation_s", "direction_changes": "direction_change_s",
                  "tool_changes": "tool_change_s", "travel_m": "travel_s_per_m",
-                 "stability_risk": "stability_risk_s"}
+                 "stability_risk": "stability_risk_s", "unreachable": "unreachable_s"}
 
 
 def _weight(text: str) -> tuple[str, float]:
@@ -84,7 +84,8 @@ def print_table(plan: SequencePlan, n_parts: int) -> None:
     total = sum(plan.timings_s.values())
     print(f"{plan.product}: {n_parts} parts; {how}; {total:.2f} s")
     short = {"reorientations": "reorient", "direction_changes": "dir_chg",
-             "tool_changes": "tool_chg", "travel_m": "travel_m", "stability_risk": "risk"}
+             "tool_changes": "tool_chg", "travel_m": "travel_m", "stability_risk": "risk",
+             "unreachable": "unreach"}
     print(f"{'rank':>4} {'cost_s':>8} " + " ".join(f"{short[t]:>9}" for t in COST_TERMS)
           + "  sequence (insertion direction)")
     for s in plan.sequences:
@@ -92,6 +93,9 @@ def print_table(plan: SequencePlan, n_parts: int) -> None:
                           for t in COST_TERMS)
         order = " > ".join(f"{st.part}({st.insertion_label})" for st in s.steps)
         print(f"{s.rank:>4} {s.cost_s:>8.2f} {values}  {order}")
+        for st in s.steps:
+            if st.unreachable:
+                print(f"{'':>14}{st.part}: {st.unreachable}")
     print("precedence (before -> after: why):")
     base_after: dict[str, list[str]] = {}
     for e in plan.edges():

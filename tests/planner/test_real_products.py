@@ -254,3 +254,60 @@ def test_tray_neighbours_20_mm_apart_are_not_hit_by_the_open_fingers(tmp_path):
         others = [n for n in product.part_names if n != name]
         d, who = scene.closest([(GRIPPER_SPAN, T)], others, 1.0)
         assert d >= margin, (name, who, d)
+
+
+# ---------------------------------------------------------------------------------------------
+# Sequences that know the gripper (item 3)
+# ---------------------------------------------------------------------------------------------
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def test_gear_unit_orders_the_gripper_cannot_do_rank_below_the_others_with_their_reason():
+    """gear_unit: with the cover on, no grasp of the collar is free (the cover's flange hangs
+    over it). Ignoring the gripper, those orders ranked first and the motion planner had to
+    fail through them; now they rank last, each with the reason."""
+    import dataclasses
+
+    from asmplan.planner.sequence import SequenceSettings
+
+    product = load_product(EXAMPLES / "gear_unit.yaml")
+    blind = plan_sequence(product, settings=SequenceSettings(top_k=8, gripper_access=False))
+    order0 = blind.best.order
+    assert order0.index("cover") < order0.index("collar")  # the old, unplannable first choice
+    sp = plan_sequence(product, settings=dataclasses.replace(SequenceSettings(), top_k=8))
+    after = [s for s in sp.sequences if s.order.index("cover") < s.order.index("collar")]
+    before = [s for s in sp.sequences if s.order.index("collar") < s.order.index("cover")]
+    assert after and before
+    assert max(s.rank for s in before) < min(s.rank for s in after)
+    for s in after:
+        assert s.terms["unreachable"] == 1
+        step = next(st for st in s.steps if st.part == "collar")
+        assert "cannot reach collar" in step.unreachable and "cover" in step.unreachable
+    for s in before:
+        assert s.terms["unreachable"] == 0
+        assert all(st.unreachable == "" for st in s.steps)
+
+
+def test_identical_parts_collapse_to_one_order():
+    """beam_and_tenon: three identical posts give 6 feasible orders but one process;
+    gear_unit's identical posts no longer make two fallback orders of every order."""
+    from asmplan.planner.sequence import identical_parts
+
+    product = load_product(PRODUCTS / "beam_and_tenon.yaml")
+    assert identical_parts(product) == [("post_1", "post_2", "post_3")]
+    sp = plan_sequence(product)
+    assert sp.feasible_count == 6
+    assert len(sp.sequences) == 1
+    gear = load_product(EXAMPLES / "gear_unit.yaml")
+    assert identical_parts(gear) == [("post_1", "post_2")]
+    keys = [tuple("post" if n.startswith("post_") else n for n in s.order)
+            for s in plan_sequence(gear).sequences]
+    assert len(keys) == len(set(keys))
+
+
+def test_gear_unit_plans_its_best_ranked_order():
+    from asmplan.planner.motion import plan_product
+
+    plan = plan_product(load_product(EXAMPLES / "gear_unit.yaml")).plan
+    assert "could not be planned" not in plan.sequence_note
+    assert plan.sequence.index("collar") < plan.sequence.index("cover")
