@@ -66,7 +66,13 @@ from ..knowledge.errors import InputIssue, ProductError
 from ..knowledge.graphs import add_precedence, precedence_graph
 from ..knowledge.model import PrecedenceRule, Product
 from .access import GripperAccess
-from .blocking import BlockingTable, GeometryOracle, blocking_table, mate_insertion_direction
+from .blocking import (
+    BlockingTable,
+    GeometryOracle,
+    blocking_table,
+    direction_label,
+    mate_insertion_direction,
+)
 from .errors import PlanningError
 
 COST_TERMS: tuple[str, ...] = ("reorientations", "direction_changes", "tool_changes", "travel_m",
@@ -342,6 +348,7 @@ class SequencePlan:
     necessary: tuple[tuple[str, str], ...] = ()
     settings: SequenceSettings = field(default_factory=SequenceSettings)
     timings_s: dict[str, float] = field(default_factory=dict)
+    links: dict[tuple[str, str], str] = field(default_factory=dict)
 
     @property
     def best(self) -> RankedSequence:
@@ -361,6 +368,9 @@ class SequencePlan:
             path = nx.shortest_path(self.precedence, before, after)
         except (nx.NetworkXNoPath, nx.NodeNotFound):
             if (before, after) in self.necessary:
+                link = self.links.get((before, after), "")
+                if link:
+                    return f"{before} before {after}: {link}"
                 return (f"{before} before {after}: every feasible sequence (exhaustive search) "
                         f"places {before} first, though no single precedence edge says so")
             return f"nothing requires {before} before {after}"
@@ -852,10 +862,67 @@ class _Compiled:
                 out[name] = f"must come after {', '.join(missing)}"
             elif not self.stable_alone[p] and not (self.holders[p] & done):
                 out[name] = "nothing placed can hold it"
+            elif self.mate_conflict(p, done):
+                out[name] = self.mate_conflict(p, done)
             else:
                 rows = _blocked_text(self.table, name, frozenset(present))
                 out[name] = "blocked: " + _evidence_text(rows)
         return out
+
+    def mate_conflict(self, p: int, done: int) -> str:
+        """Why the mates of part p with parts in ``done`` admit no common insertion ("" when
+        they do): each feature enters its mate from the mouth side."""
+        required = [(partner, i) for partner, i in self.mate_dirs[p] if partner & done]
+        dirs = {i for _partner, i in required}
+        if not required or (len(dirs) == 1 and -1 not in dirs):
+            return ""
+        name = self.names[p]
+        texts = []
+        for m in sorted(self.product.mates, key=lambda m: m.name):
+            if name not in (m.pin_part, m.hole_part):
+                continue
+            other = m.hole_part if name == m.pin_part else m.pin_part
+            if not (done >> self.idx[other] & 1):
+                continue
+            v = mate_insertion_direction(self.product, m.name, name)
+            texts.append(f"mate {m.name} with {other} enters along {direction_label(v)}")
+        return ("its mates with parts already placed need different insertion directions ("
+                + "; ".join(texts) + "): each feature enters its mate from the mouth side")
+
+    def link(self, before: str, after: str) -> str:
+        """Why ``before`` must precede ``after`` when no precedence edge chain says so: the
+        reason ``before`` cannot be added once ``after`` and everything ``after`` requires are
+        in place ("" when it can be added there; the reason then lies further on)."""
+        a, b = self.idx[before], self.idx[after]
+        S = self.pred[b] | 1 << b
+        if S >> a & 1:
+            return ""
+        placed = [n for n in self.bits(S) if n != after]
+        head = (f"once {after} is in place (with {', '.join(placed) or 'nothing'} before it, as "
+                "required), ")
+        if self.choose(a, S) < 0:
+            return head + f"{before} cannot be added: {self.reasons(S)[before]}"
+        # a deeper link: every way on from S dead-ends; name the smallest dead end
+        seen, frontier, dead = {S}, [S], []
+        while frontier and len(seen) < 5000:
+            nxt = []
+            for T in frontier:
+                succ = self.successors(T)
+                if not succ and self.full != T:
+                    dead.append(T)
+                for p, _d in succ:
+                    U = T | 1 << p
+                    if U not in seen:
+                        seen.add(U)
+                        nxt.append(U)
+            frontier = nxt
+        if not dead or self.full in seen:
+            return ""
+        D = min(dead, key=lambda T: (bin(T).count("1"), sorted(self.bits(T))))
+        extra = [n for n in self.bits(D) if n not in self.bits(S)]
+        why = "; ".join(f"{p}: {r}" for p, r in sorted(self.reasons(D).items()))
+        return (head + f"every way on dead-ends, e.g. after also placing "
+                f"{', '.join(extra) or 'nothing'}: {why}")
 
     def bits(self, done: int) -> list[str]:
         return [self.names[i] for i in range(self.n) if done >> i & 1]
@@ -1177,9 +1244,11 @@ def plan_sequence(product: Product, oracle: GeometryOracle | None = None,
                 [{"dead_end": c.bits(done), "reasons": c.reasons(done)}])
         raise NoFeasibleSequenceError(product.name, c.bits(done), c.reasons(done))
     labels = _distinct(c, labels, classes)[: settings.top_k]
+    links = {(a, b): c.link(a, b) for a, b in necessary if not nx.has_path(graph, a, b)}
     return SequencePlan(product=product.name, sequences=_ranked(c, labels), precedence=graph,
                         blocking=table, method=method, feasible_count=count, states=states,
-                        necessary=tuple(necessary), settings=settings, timings_s=timings)
+                        necessary=tuple(necessary), settings=settings, timings_s=timings,
+                        links={k: v for k, v in links.items() if v})
 
 
 __all__ = ["COST_TERMS", "NoFeasibleSequenceError", "PrecedenceConflictError", "RankedSequence",

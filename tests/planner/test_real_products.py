@@ -311,3 +311,27 @@ def test_gear_unit_plans_its_best_ranked_order():
     plan = plan_product(load_product(EXAMPLES / "gear_unit.yaml")).plan
     assert "could not be planned" not in plan.sequence_note
     assert plan.sequence.index("collar") < plan.sequence.index("cover")
+
+
+# ---------------------------------------------------------------------------------------------
+# Chains explained by the link that forces them (item 4)
+# ---------------------------------------------------------------------------------------------
+def test_necessary_order_without_an_edge_names_the_link():
+    """gearbox: every feasible order puts each dowel before the cover, but no precedence edge
+    says so (the dowel could pass the cover's through hole). The link: with the cover on, a
+    dowel's two mates (foot into the housing along -z, head into the cover along +z) cannot
+    both be entered from their mouths."""
+    from asmplan.planner.sequence import SequenceSettings
+
+    product = load_product(PRODUCTS / "gearbox.yaml")
+    sp = plan_sequence(product, settings=SequenceSettings(gripper_access=False))
+    assert ("dowel_1", "cover") in sp.necessary
+    text = sp.explain("dowel_1", "cover")
+    assert "every feasible sequence" not in text
+    assert text.startswith("dowel_1 before cover: once cover is in place")
+    assert "mate cover_1 with cover enters along +z" in text
+    assert "mate dowel_1_foot with housing enters along -z" in text
+    # the JSON carries the same explanation
+    entry = next(e for e in sp.as_dict()["necessary"]
+                 if (e["before"], e["after"]) == ("dowel_1", "cover"))
+    assert entry["explanation"] == text
