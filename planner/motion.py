@@ -64,6 +64,7 @@ from .errors import (
     StartInCollisionError,
 )
 from .grasp import GraspSurface, GripLoad, Rejections, collision_free, iter_grasps
+from .insertion import clearing_travel_m
 from .ompl_backend import SE3Bounds, plan_se3
 from .plan import Grasp, Plan, PlannerSettings, Step
 from .timing import (
@@ -221,8 +222,14 @@ class InsertionSpec:
 
 
 def insertion_spec(product: Product, part: str, placed: Sequence[str],
-                   fallback_direction: np.ndarray | None = None, step: int = 0) -> InsertionSpec:
+                   fallback_direction: np.ndarray | None = None, step: int = 0,
+                   parts: dict[str, PartData] | None = None) -> InsertionSpec:
     """The insertion of ``part`` into the partial assembly ``placed``.
+
+    The engaged length is the longest pin engagement, or with ``parts`` (part geometry) the
+    longest travel that takes the part out of every bore it passes
+    (:func:`asmplan.planner.insertion.clearing_travel_m`: a shaft through two bearings starts
+    before the first).
 
     The direction is the pin axis in the world when ``part`` carries the pin, minus it when
     ``part`` carries the hole; every mate with a placed part must agree. Without such a mate
@@ -246,6 +253,10 @@ def insertion_spec(product: Product, part: str, placed: Sequence[str],
         names.append(m.name)
         engaged = pin.length_m if (hole.through or hole.length_m <= 0) \
             else min(pin.length_m, hole.length_m)
+        if parts is not None:  # beyond the feature's engagement by more than mesh noise
+            travel = clearing_travel_m(product, m, {n: parts[n].points_m
+                                                    for n in (m.pin_part, m.hole_part)})
+            engaged = travel if travel > engaged + 1e-6 else engaged
         length = max(length, engaged)
         depth = max(hole.length_m, pin.length_m)
         regions.append(HoleRegion(m.name, m.pin_part, m.hole_part, np.asarray(hole.origin_m),
@@ -819,7 +830,7 @@ class MotionPlanner:
                                     cpu_s=time.process_time() - c_start)
         data = self.parts[part]
         clamp = clamp_force(product, part, data.mass_kg, step=index)
-        spec = insertion_spec(product, part, self.placed, fallback_direction, index)
+        spec = insertion_spec(product, part, self.placed, fallback_direction, index, self.parts)
         T_start = self.start_poses[part]
         T_final = product.T_world_assembled(part)
         approach = product.process.approach_distance_m
@@ -1426,7 +1437,8 @@ def dense_recheck(plan: Plan, product: Product, parts: dict[str, PartData] | Non
             continue
         g = step.grasp
         scene.use_gripper(g, product.gripper_for(step.part))
-        spec = insertion_spec(product, step.part, placed, step.insertion_direction, step.index)
+        spec = insertion_spec(product, step.part, placed, step.insertion_direction, step.index,
+                              parts)
         T_pg = invert(g.T_part_gripper)
         traj = step.trajectory
         radius = carried_radius(product.gripper_for(step.part), parts[step.part], T_pg, g)

@@ -335,3 +335,36 @@ def test_necessary_order_without_an_edge_names_the_link():
     entry = next(e for e in sp.as_dict()["necessary"]
                  if (e["before"], e["after"]) == ("dowel_1", "cover"))
     assert entry["explanation"] == text
+
+
+# ---------------------------------------------------------------------------------------------
+# Multi-bore insertions (item 5)
+# ---------------------------------------------------------------------------------------------
+def test_shaft_through_two_bores_starts_before_the_first_and_plans():
+    """two_bore_shaft: the shaft (x -80..50 mm seated) goes through the left bore (mouth at
+    x = -50) and on into the right one (mouth x = 30). Each mate engages 20 mm, but the tip
+    must start before the FIRST mouth: 100 mm of travel plus the 15 mm approach. With the
+    per-mate 20 mm the pre-insertion pose had the shaft through the left block and the
+    gripper hit the frame on the way in."""
+    from asmplan.planner.motion import plan_product
+
+    product = load_product(PRODUCTS / "two_bore_shaft.yaml")
+    step = plan_product(product).plan.steps[1]
+    assert step.part == "shaft" and step.kind == "insert"
+    assert step.insertion_length_m == pytest.approx(0.100, abs=1e-6)
+    tip_pre = (step.T_world_pre_insertion @ np.array([0.0, 0.0, 0.065, 1.0]))[0]
+    assert tip_pre == pytest.approx(-0.050 - 0.015, abs=1e-6)
+
+
+def test_clearing_travel_counts_every_bore_the_shaft_passes(geometry_cache):
+    """gearbox shaft: the tip (x = 70 mm) starts before bearing_1's flange (x = -69 mm):
+    139 mm for the first bore, less for the gear (-6 mm: 76), the spacer (6: 64) and
+    bearing_2 (54: 16)."""
+    from asmplan.planner.insertion import clearing_travel_m
+
+    product = load_product(PRODUCTS / "gearbox.yaml")
+    pts = {n: d.points_m for n, d in geometry_cache.parts(product).items()}
+    travel = {m.name: clearing_travel_m(product, m, pts) for m in product.mates
+              if m.pin_part == "shaft"}
+    assert travel == pytest.approx({"shaft_in_1": 0.139, "shaft_in_gear": 0.076,
+                                    "shaft_in_spacer": 0.064, "shaft_in_2": 0.016}, abs=2e-6)
