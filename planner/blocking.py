@@ -25,8 +25,12 @@ Conventions
   mate partner is dropped from the blockers along that mate's own axis (a press fit is
   inserted exactly along its axis); it still blocks every other direction.
 * Support (for the stability check): the parts that would stop ``p`` from falling are the
-  blockers of a short probe of ``p`` straight down (``support_probe_m``); a part whose lowest
-  point is within ``table_contact_m`` of the table rests on the table.
+  blockers of a short probe of ``p`` straight down; a part whose lowest point is within
+  ``table_contact_m`` of the table rests on the table. The probe is ``support_probe_m``
+  (0.1 mm) long, or, for a part with mates, as long as the largest lead-in of its mates (the
+  hole's chamfer plus half the largest diametral clearance, :func:`capture_m`): a gear
+  standing 0.2 mm above its ribs before the shaft arrives drops onto them and the shaft's
+  chamfer still finds its bore, so the ribs hold it.
 
 The geometry is reached through the small :class:`GeometryOracle` protocol (bounding boxes and
 ``blockers(part, direction, distance_m)``); :class:`asmplan.planner.fcl_oracle.FclOracle`
@@ -228,6 +232,18 @@ class BlockingTable:
                 for p in self.parts}
 
 
+def capture_m(product: Product, part: str) -> float:
+    """The largest lead-in (m) of ``part``'s mates: hole chamfer plus half the largest
+    diametral clearance. A part resting that much lower than its seat is still caught by its
+    mate's chamfer when its partner comes."""
+    out = 0.0
+    for m in product.mates:
+        if part in (m.pin_part, m.hole_part):
+            hole = product.feature(m.hole_part, m.hole_feature)
+            out = max(out, hole.chamfer_m + max(m.clearance_max_m, 0.0) / 2)
+    return out
+
+
 def blocking_table(product: Product, oracle: GeometryOracle, *, support_probe_m: float = 1.0e-4,
                    table_contact_m: float = 1.0e-4, margin_m: float = 1.0e-3) -> BlockingTable:
     """Sweep every part along every candidate direction in the full assembly.
@@ -236,7 +252,8 @@ def blocking_table(product: Product, oracle: GeometryOracle, *, support_probe_m:
     ----------
     product : the product (assembled poses, mates).
     oracle : geometry (see :class:`GeometryOracle`).
-    support_probe_m : length of the downward probe that finds a part's supporters, m.
+    support_probe_m : length of the downward probe that finds a part's supporters, m (at
+        least; a part with mates is probed over its largest lead-in, :func:`capture_m`).
     table_contact_m : a part whose lowest point is at most this high rests on the table, m.
     margin_m : extra sweep length beyond the product's bounding box, m.
     """
@@ -262,11 +279,20 @@ def blocking_table(product: Product, oracle: GeometryOracle, *, support_probe_m:
             tabs.append(dz < -1e-9 and bounds[p][0, 2] + dz * dist < -table_contact_m)
         directions[p], blockers[p], table[p] = dirs, tuple(blocks), tuple(tabs)
         on_table[p] = bool(bounds[p][0, 2] <= table_contact_m)
-        supporters[p] = frozenset(oracle.blockers(p, np.array([0.0, 0.0, -1.0]),
-                                                  support_probe_m)) - {p}
+        probe = max(support_probe_m, capture_m(product, p))
+        supporters[p] = frozenset(oracle.blockers(p, np.array([0.0, 0.0, -1.0]), probe)) - {p}
     return BlockingTable(names, directions, blockers, table, supporters, on_table, bounds)
 
 
-__all__ = ["AXES", "BlockingTable", "GeometryOracle", "RemovalDirection", "blocking_table",
-           "candidate_directions", "clearing_distance_m", "direction_label",
-           "mate_insertion_direction"]
+__all__ = [
+    "AXES",
+    "BlockingTable",
+    "GeometryOracle",
+    "RemovalDirection",
+    "blocking_table",
+    "candidate_directions",
+    "capture_m",
+    "clearing_distance_m",
+    "direction_label",
+    "mate_insertion_direction",
+]

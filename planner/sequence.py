@@ -266,8 +266,9 @@ class SequenceStep:
         What holds the part once placed: ``"fixture:<name>"``, ``"table"``, or part names
         (supporting or mated parts already placed).
     stability : str
-        ``"fixtured"``, ``"table"``, ``"resting"`` (something under it) or ``"mated"``
-        (held by mates only: one unit of stability risk).
+        ``"fixtured"``, ``"table"``, ``"resting"`` (something under it), ``"rule"`` (a
+        knowledge rule "q before part" says it goes onto q, placed) or ``"mated"`` (held by
+        mates only: one unit of stability risk).
     tool : str
         ``"gripper"`` or ``"fixture:<name>"``.
     unreachable : str
@@ -435,6 +436,16 @@ def _mate_partners(product: Product) -> dict[str, dict[str, str]]:
     return out
 
 
+def _rule_holders(product: Product) -> dict[str, dict[str, PrecedenceRule]]:
+    """part -> {q: rule} for every knowledge rule "q before part": the rule asserts that the
+    part goes onto q, so q holds it even where the geometric probe finds no contact (ribs a
+    millimetre below, a support the model leaves out)."""
+    out: dict[str, dict[str, PrecedenceRule]] = {p: {} for p in product.part_names}
+    for r in sorted(product.precedence.rules, key=lambda r: r.source_line):
+        out[r.after].setdefault(r.before, r)
+    return out
+
+
 def _stable_alone(product: Product, table: BlockingTable, part: str) -> bool:
     return product.is_fixtured(part) or table.on_table[part]
 
@@ -463,6 +474,7 @@ def _derive(product: Product, table: BlockingTable, graph: nx.DiGraph) -> int:
         hold it.
     """
     partners = _mate_partners(product)
+    ruled = _rule_holders(product)
     added = 0
     changed = True
     while changed:
@@ -499,10 +511,12 @@ def _derive(product: Product, table: BlockingTable, graph: nx.DiGraph) -> int:
             if _stable_alone(product, table, p):
                 continue
             desc = frozenset(nx.descendants(graph, p))
-            holders = (table.supporters[p] | frozenset(partners[p])) - desc - {p}
+            holders = (table.supporters[p] | frozenset(partners[p]) | frozenset(ruled[p])) \
+                - desc - {p}
             if not holders:
                 raise _Dead(p, "nothing can hold it (not fixtured, not on the table, and every "
-                            "part under it or mated to it must come after it)",
+                            "part under it or mated to it must come after it; a rule "
+                            "\"<support> before " + p + "\" says what it rests on)",
                             [{"supporters": sorted(table.supporters[p]),
                               "mated_to": sorted(partners[p]), "after_it": sorted(desc)}], anc)
             if len(holders) == 1:
@@ -515,6 +529,8 @@ def _derive(product: Product, table: BlockingTable, graph: nx.DiGraph) -> int:
                     how.append(f"it rests on {q}")
                 if q in partners[p]:
                     how.append(f"mate {partners[p][q]}")
+                if q in ruled[p]:
+                    how.append(f"rule (line {ruled[p][q].source_line}): {ruled[p][q].reason}")
                 add_precedence(graph, q, p, {
                     "kind": "stability", "holder": q,
                     "reason": f"{p} is not fixtured and not on the table; {q} is the only part "
@@ -671,7 +687,10 @@ class _Compiled:
         self.stable_alone = [_stable_alone(product, table, p) for p in names]
         partners = _mate_partners(product)
         self.support = [mask(table.supporters[p]) for p in names]
-        self.holders = [mask(table.supporters[p] | frozenset(partners[p])) for p in names]
+        ruled = _rule_holders(product)
+        self.ruled = [mask(ruled[p]) for p in names]
+        self.holders = [mask(table.supporters[p] | frozenset(partners[p]) | frozenset(ruled[p]))
+                        for p in names]
         self.groups = [mask(g.parts) for g in product.precedence.groups]
         # preferred directions: handling knowledge, then mates whose partner is present,
         # then top-down insertion, then the rest
@@ -803,7 +822,7 @@ class _Compiled:
             dch = 0.0 if self.insertion_id[last][dlast] == self.insertion_id[p][dp] else 1.0
             tch = 0.0 if self.tool[last] == self.tool[p] else 1.0
         travel = self.travel[last][p]  # last = -1 picks the home row
-        risk = 0.0 if (self.stable_alone[p] or self.support[p] & done) else 1.0
+        risk = 0.0 if (self.stable_alone[p] or (self.support[p] | self.ruled[p]) & done) else 1.0
         return (reo, dch, tch, travel, risk, 0.0 if self.reachable(p, dp, done) else 1.0)
 
     # -- gripper access ----------------------------------------------------------------------
@@ -1089,6 +1108,8 @@ def _ranked(c: _Compiled, labels: list[_Label]) -> tuple[RankedSequence, ...]:
                 held, stab = ("table",), "table"
             elif c.support[p] & done:
                 held, stab = tuple(c.bits(c.holders[p] & done)), "resting"
+            elif c.ruled[p] & done:
+                held, stab = tuple(c.bits(c.holders[p] & done)), "rule"
             else:
                 held, stab = tuple(c.bits(c.holders[p] & done)), "mated"
             steps.append(SequenceStep(name, direction.insertion, direction.insertion_label, free,

@@ -368,3 +368,58 @@ def test_clearing_travel_counts_every_bore_the_shaft_passes(geometry_cache):
               if m.pin_part == "shaft"}
     assert travel == pytest.approx({"shaft_in_1": 0.139, "shaft_in_gear": 0.076,
                                     "shaft_in_spacer": 0.064, "shaft_in_2": 0.016}, abs=2e-6)
+
+
+# ---------------------------------------------------------------------------------------------
+# Stability: supports under a part, and the rule that says what a part rests on (item 6)
+# ---------------------------------------------------------------------------------------------
+def test_gear_standing_within_its_lead_in_above_the_ribs_rests_on_them(tmp_path):
+    """0.2 mm above the ribs: the 0.1 mm probe found nothing under the gear ("nothing can hold
+    it"); within the bore's lead-in (0.5 mm chamfer) it drops onto the ribs and the shaft's
+    chamfer still finds the bore, so the ribs hold it."""
+    from asmplan.planner.blocking import capture_m
+    from asmplan.planner.sequence import SequenceSettings
+
+    product = load_product(gear_on_ribs(tmp_path, 0.2e-3))
+    assert capture_m(product, "gear") == 0.0  # no mate in this fixture: the probe stays short
+    # the gear's bore and a shaft: a fit with a 0.5 mm chamfer gives the lead-in
+    text = gear_on_ribs(tmp_path, 0.2e-3).read_text().replace("precedence:", """\
+  - name: shaft
+    material: steel
+    geometry: {type: cylinder, diameter: 15, length: 30}
+    features:
+      - {name: j, type: shaft, at: [0, 0, -9], axis: [0, 0, 1], diameter: 15, length: 12, chamfer: 0.5}
+    pose: {xyz: [-3, 0, 50], rpy: [0, 90, 0]}
+    start: {location: tray, xyz: [100, 150, 7.5], rpy: [0, 90, 0]}
+mates:
+  - {name: fit, pin: shaft.j, hole: gear.bore, fit: H7/h6}
+precedence:""")
+    path = tmp_path / "gear_shaft_ribs.yaml"
+    path.write_text(text)
+    product = load_product(path)
+    assert capture_m(product, "gear") == pytest.approx(0.5e-3 + 14.5e-6, abs=1e-9)
+    sp = plan_sequence(product, settings=SequenceSettings(gripper_access=False))
+    gear = next(st for s in sp.sequences for st in s.steps
+                if st.part == "gear" and s.order.index("gear") < s.order.index("shaft"))
+    assert gear.stability == "resting" and gear.held_by == ("base",)
+
+
+def test_rule_saying_what_a_part_rests_on_is_accepted(tmp_path):
+    """1 mm above the ribs the geometry cannot tell that the gear is held (nothing within
+    reach below it): without knowledge no order exists. A rule "base before gear" written to
+    say it rests on the base's ribs used to be blamed for the dead end; it is now taken as
+    that knowledge."""
+    from asmplan.planner.sequence import NoFeasibleSequenceError, SequenceSettings
+
+    settings = SequenceSettings(gripper_access=False)
+    with pytest.raises(NoFeasibleSequenceError, match="nothing can hold it"):
+        plan_sequence(load_product(gear_on_ribs(tmp_path, 1e-3)), settings=settings)
+    text = gear_on_ribs(tmp_path, 1e-3).read_text().replace(
+        "  base: base\n", "  base: base\n  rules:\n    - {before: base, after: gear, "
+        "reason: \"the gear rests on the base's ribs until the shaft arrives\"}\n")
+    path = tmp_path / "ruled.yaml"
+    path.write_text(text)
+    sp = plan_sequence(load_product(path), settings=settings)
+    step = sp.best.steps[1]
+    assert step.part == "gear" and step.stability == "rule" and step.held_by == ("base",)
+    assert sp.best.terms["stability_risk"] == 0
