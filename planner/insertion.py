@@ -19,6 +19,9 @@ through several bores, each mate gives its own travel and the largest is the one
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
 
 from ..knowledge.model import Mate, Product
@@ -60,4 +63,30 @@ def clearing_travel_m(product: Product, mate: Mate, points_m: dict[str, np.ndarr
     return max(float(lead.max() - entry.min()), 0.0)
 
 
-__all__ = ["clearing_travel_m"]
+
+
+def clear_standoff_m(scene: Any, part: str, T_final: np.ndarray, direction: np.ndarray,
+                     obstacles: Sequence[str], start_m: float, clearance_m: float = 1e-3,
+                     step_m: float = 1e-3, limit_m: float = 0.2) -> float:
+    """The pre-insertion distance (m, >= ``start_m``) at which ``part`` stands at least
+    ``clearance_m`` from every obstacle, backing off along ``-direction`` from ``T_final``.
+
+    A spacer dropped into a slot 0.1 mm wider than itself is still in the slot 15 mm above
+    its seat: starting the straight (exactly checked) segment there left the free-space
+    planner a 0.1 mm passage to find. Backing the start off until the part is clear of
+    everything puts the whole narrow passage on the straight segment. ``scene`` is a
+    :class:`asmplan.planner.motion.Scene`; ``start_m`` is returned when the part is clear
+    there, or when it is not clear anywhere up to ``limit_m``.
+    """
+    u = np.asarray(direction, float)
+    s = float(start_m)
+    while s <= limit_m:
+        T = np.array(T_final, float)
+        T[:3, 3] -= u * s
+        if scene.distance_bound([(part, T)], obstacles, enough=clearance_m) >= clearance_m:
+            return s
+        s += step_m
+    return float(start_m)
+
+
+__all__ = ["clear_standoff_m", "clearing_travel_m"]

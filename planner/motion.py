@@ -64,7 +64,7 @@ from .errors import (
     StartInCollisionError,
 )
 from .grasp import GraspSurface, GripLoad, Rejections, collision_free, iter_grasps
-from .insertion import clearing_travel_m
+from .insertion import clear_standoff_m, clearing_travel_m
 from .ompl_backend import SE3Bounds, plan_se3
 from .plan import Grasp, Plan, PlannerSettings, Step
 from .timing import (
@@ -834,9 +834,11 @@ class MotionPlanner:
         T_start = self.start_poses[part]
         T_final = product.T_world_assembled(part)
         approach = product.process.approach_distance_m
-        pre_dist = spec.length_m + approach
-        T_pre = _translate(T_final, -spec.direction * pre_dist)
         obstacles = scene.obstacles(part)
+        pre_dist = clear_standoff_m(scene, part, T_final, spec.direction, obstacles,
+                                    spec.length_m + approach,
+                                    clearance_m=product.process.position_tolerance_m)
+        T_pre = _translate(T_final, -spec.direction * pre_dist)
 
         # 1. the part alone along its insertion (independent of the grasp)
         sampled = 0.0 if self.direct_insertion else self._check_insertion(

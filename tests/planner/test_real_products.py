@@ -423,3 +423,23 @@ def test_rule_saying_what_a_part_rests_on_is_accepted(tmp_path):
     step = sp.best.steps[1]
     assert step.part == "gear" and step.stability == "rule" and step.held_by == ("base",)
     assert sp.best.terms["stability_risk"] == 0
+
+
+def test_spacer_dropped_into_its_slot_starts_its_straight_segment_above_the_slot():
+    """gearbox spacer: 48 mm long between the gear's face and the right wall (no axial
+    play). 15 mm above its seat it is still in the slot; starting the straight, exactly
+    checked segment there left OMPL a zero-width passage ('no path ... Approximate
+    solution' in every order). The segment now starts where the spacer is clear of
+    everything by the position tolerance: above the wall top (z = 80 mm), its underside at
+    39 mm when seated."""
+    from asmplan.planner.motion import MotionPlanner
+    from asmplan.planner.plan import PlannerSettings
+
+    product = load_product(PRODUCTS / "gearbox.yaml")
+    planner = MotionPlanner(product, PlannerSettings())
+    for k, name in enumerate(["housing", "gear"]):
+        planner.plan_step(k, name)
+    step, _ = planner.plan_step(2, "spacer")
+    lift = step.T_world_pre_insertion[2, 3] - step.T_world_final[2, 3]
+    assert 80.5e-3 - 39e-3 <= lift <= 80.5e-3 - 39e-3 + 1e-3 + 1e-9
+    assert np.allclose(step.insertion_direction, [0, 0, -1])
