@@ -64,7 +64,7 @@ setup() {
     # The package is installed editable, so pip compiles no bytecode for it, and where
     # PYTHONDONTWRITEBYTECODE is set Python never caches it: compile it here (each `asmplan`
     # run then saves ~0.1 s of compiling its own modules; unchanged files are skipped).
-    "$venv/bin/python" -m compileall -q knowledge parts planner sim report asmplan examples >/dev/null
+    "$venv/bin/python" -m compileall -q knowledge parts planner sim report asmplan examples bench >/dev/null
 }
 
 cmd=${1:-run}

@@ -5,7 +5,9 @@ The public API, for scripts and notebooks (each name is imported on first use, s
 
 ========================  =====================================================================
 ``load_product``          read and validate a product YAML -> :class:`Product` (SI units)
-``ProductGeometry``       meshes, mass properties, feature frames, collision models per part
+``ProductGeometry``       meshes, mass properties, feature frames, collision models per part;
+                          built once per product and passed to every stage below
+``FclOracle``             which part blocks which, from the geometry (for ``plan_sequence``)
 ``plan_sequence``         ranked feasible sequences, every precedence explained
 ``plan_product``          grasps, collision-free paths and timed trajectories -> ``PlanResult``
 ``simulate_plan``         every step in PyBullet -> :class:`PlanResults`
@@ -15,6 +17,8 @@ The public API, for scripts and notebooks (each name is imported on first use, s
 ``RunSettings``           settings of a run (fidelity, planner, sequence weights)
 ``PlannerSettings``       planner choice, time budget, seed, check resolutions
 ``render_product``        an offscreen PNG of the assembled product
+``AssemblyState``         where every part is while a step runs (apart from the product)
+``AsmplanError``          the root of every error asmplan raises on purpose
 ========================  =====================================================================
 """
 
@@ -30,13 +34,14 @@ _EXPORTS = {
     "ProductError": "asmplan.knowledge.errors",
     "Product": "asmplan.knowledge.model",
     "ProductGeometry": "asmplan.parts.models",
+    "FclOracle": "asmplan.planner.fcl_oracle",
     "plan_sequence": "asmplan.planner.sequence",
     "SequenceSettings": "asmplan.planner.sequence",
-    "plan_product": "asmplan.planner.motion",
+    "plan_product": "asmplan.planner.product",
     "PlannerSettings": "asmplan.planner.plan",
     "Plan": "asmplan.planner.plan",
     "simulate_plan": "asmplan.sim.simulate",
-    "PlanResults": "asmplan.sim.simulate",
+    "PlanResults": "asmplan.sim.results",
     "preset": "asmplan.sim.fidelity",
     "Fidelity": "asmplan.sim.fidelity",
     "run_product": "asmplan.pipeline",
@@ -44,6 +49,8 @@ _EXPORTS = {
     "RunSettings": "asmplan.pipeline",
     "RunResult": "asmplan.pipeline",
     "render_product": "asmplan.report.views",
+    "AsmplanError": "asmplan.errors",
+    "AssemblyState": "asmplan.planner.plan",
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -344,7 +344,8 @@ class OutputFolder:
         self.user_path = Path(target)
         self.target = check_output_folder(target)
         self.target.parent.mkdir(parents=True, exist_ok=True)
-        self._lock_fd = _acquire_lock(self.user_path, self.target.parent / f".{self.target.name}.lock")
+        lock = self.target.parent / f".{self.target.name}.lock"
+        self._lock_fd: int | None = _acquire_lock(self.user_path, lock)
         try:
             _remove_abandoned(self.target)
             check_output_folder(self.user_path)  # again, under the lock

@@ -24,17 +24,12 @@ from .knowledge.model import Product
 from .parts.models import ProductGeometry
 from .planner.errors import PlanningError
 from .planner.fcl_oracle import FclOracle
-from .planner.motion import plan_product, ranked_sequences
 from .planner.plan import Plan, PlannerSettings
+from .planner.product import plan_product, ranked_sequences
 from .planner.sequence import SequencePlan, SequenceSettings, plan_sequence
 from .sim.fidelity import Fidelity, preset
-from .sim.simulate import (
-    PipelinedSimulation,
-    PlanResults,
-    clearance_warnings,
-    resolve_workers,
-    simulate_plan,
-)
+from .sim.results import PlanResults
+from .sim.simulate import PipelinedSimulation, resolve_workers, simulate_plan
 
 Progress = Callable[[str, int, int, str], None]
 """``progress(stage, done, total, label)``: stage is "sequence", "plan", "simulate" or "report"."""
@@ -61,7 +56,8 @@ class RunSettings:
 
 @dataclass
 class RunResult:
-    """What a run produced. ``failure`` is set when no plan exists (with the reason)."""
+    """What a run produced. ``error`` is the typed planning failure when no plan exists (its
+    words: ``failure``; its evidence: ``failure_evidence``)."""
 
     product: Product
     geometry: ProductGeometry
@@ -69,10 +65,19 @@ class RunResult:
     sequence: SequencePlan | None = None
     plan: Plan | None = None
     results: PlanResults | None = None
-    failure: str = ""
-    failure_evidence: dict[str, Any] = field(default_factory=dict)
+    error: PlanningError | None = None
     warnings: list[str] = field(default_factory=list)
     timings_s: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def failure(self) -> str:
+        """Why no plan exists, in words ("" when a plan exists)."""
+        return "" if self.error is None else str(self.error)
+
+    @property
+    def failure_evidence(self) -> dict[str, Any]:
+        """The planning failure's evidence as JSON-safe data ({} when a plan exists)."""
+        return {} if self.error is None else self.error.evidence()
 
     @property
     def success(self) -> bool:
@@ -105,7 +110,7 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
     try:
         result.sequence = plan_sequence(product, FclOracle(product, geometry), settings.sequence)
     except PlanningError as exc:
-        result.failure, result.failure_evidence = str(exc), exc.evidence()
+        result.error = exc
     t1 = time.perf_counter()
     result.timings_s["sequence"] = t1 - t0
     tick("sequence", 1, 1, "")
@@ -121,32 +126,30 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
 
     try:
         if result.sequence is not None:
-            from .planner.motion import part_data
-
             def on_step(i: int, n: int, part: str, status: str) -> None:
                 if status == "done":
                     tick("plan", i + 1, n, part)
 
             try:
-                planned = plan_product(product, settings.planner,
-                                       sequences=ranked_sequences(product, result.sequence),
-                                       parts=part_data(product, settings.planner, geometry),
+                planned = plan_product(product, geometry, settings.planner,
+                                       sequences=ranked_sequences(result.sequence),
                                        progress=on_step,
                                        on_step=None if pipe is None else pipe.on_step)
                 result.plan = planned.plan
                 result.warnings.extend(n for s in planned.plan.steps for n in s.notes)
             except PlanningError as exc:
-                result.failure, result.failure_evidence = str(exc), exc.evidence()
+                result.error = exc
         t2 = time.perf_counter()
         result.timings_s["plan"] = t2 - t1
         if result.plan is not None and settings.simulate:
-            result.warnings.extend(clearance_warnings(product, fidelity))
             if pipe is not None:
                 result.results = pipe.results(result.plan, progress=sim_progress)
             else:
                 result.results = simulate_plan(result.plan, product, geometry, fidelity,
                                                cull=settings.cull, workers=1,
                                                progress=sim_progress)
+            # the fits the preset does not resolve (computed once, by the simulation)
+            result.warnings.extend(result.results.warnings)
             # each step's own warnings stay with the step (results.json, the report's step
             # section); the run-level list holds the plan's notes and the unresolved fits
     finally:

@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+from ..errors import AsmplanError
+
 
 @dataclass(frozen=True, order=True)
 class InputIssue:
@@ -33,7 +35,7 @@ class InputIssue:
         return f"{where}: {self.path}: {self.message}" if self.path else f"{where}: {self.message}"
 
 
-class ProductError(ValueError):
+class ProductError(AsmplanError, ValueError):
     """A product file (or a file it names) is invalid; carries every issue found at once."""
 
     def __init__(self, issues: Iterable[InputIssue]):

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 def rotation_from_rpy(rpy_rad: Sequence[float]) -> np.ndarray:
@@ -16,14 +17,6 @@ def rotation_from_rpy(rpy_rad: Sequence[float]) -> np.ndarray:
         [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
         [-sp, cp * sr, cp * cr],
     ])
-
-
-def rpy_from_rotation(R: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`rotation_from_rpy`, shape (3,), radians."""
-    pitch = np.arcsin(-np.clip(R[2, 0], -1.0, 1.0))
-    if abs(np.cos(pitch)) < 1e-9:  # gimbal lock: put all yaw into roll
-        return np.array([np.arctan2(-R[1, 2], R[1, 1]), pitch, 0.0])
-    return np.array([np.arctan2(R[2, 1], R[2, 2]), pitch, np.arctan2(R[1, 0], R[0, 0])])
 
 
 def make_T(xyz_m: Sequence[float] = (0.0, 0.0, 0.0), rpy_rad: Sequence[float] = (0.0, 0.0, 0.0)
@@ -50,25 +43,27 @@ def transform_points(T: np.ndarray, points: np.ndarray) -> np.ndarray:
     return pts @ T[:3, :3].T + T[:3, 3]
 
 
-def rotation_between(a: Sequence[float], b: Sequence[float]) -> np.ndarray:
+def rotation_between(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     """A rotation matrix (3, 3) that turns unit direction ``a`` onto ``b``."""
-    a = np.asarray(a, float) / np.linalg.norm(a)
-    b = np.asarray(b, float) / np.linalg.norm(b)
-    v = np.cross(a, b)
-    c = float(np.dot(a, b))
+    u = np.asarray(a, float)
+    u = u / np.linalg.norm(u)
+    w = np.asarray(b, float)
+    w = w / np.linalg.norm(w)
+    v = np.cross(u, w)
+    c = float(np.dot(u, w))
     if c > 1.0 - 1e-12:
         return np.eye(3)
     if c < -1.0 + 1e-12:  # opposite: rotate pi about any axis normal to a
-        axis = np.cross(a, [1.0, 0.0, 0.0])
+        axis = np.cross(u, [1.0, 0.0, 0.0])
         if np.linalg.norm(axis) < 1e-6:
-            axis = np.cross(a, [0.0, 1.0, 0.0])
+            axis = np.cross(u, [0.0, 1.0, 0.0])
         axis /= np.linalg.norm(axis)
         return 2.0 * np.outer(axis, axis) - np.eye(3)
     vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
     return np.eye(3) + vx + vx @ vx * (1.0 / (1.0 + c))
 
 
-def frame_from_axis(origin: Sequence[float], axis: Sequence[float]) -> np.ndarray:
+def frame_from_axis(origin: ArrayLike, axis: ArrayLike) -> np.ndarray:
     """A transform (4, 4) whose z axis is ``axis`` and origin is ``origin``."""
     T = np.eye(4)
     T[:3, :3] = rotation_between([0.0, 0.0, 1.0], axis)

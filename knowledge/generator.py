@@ -66,6 +66,8 @@ def _r(v: float) -> float:
     return round(float(v), 6)
 
 
+# Complexity above C (radon): one linear recipe of a product document (base, parts, mates, rules);
+# each branch is one option of the generated topology, kept in reading order.
 def generate_product(n_parts: int, seed: int, *, fit: str | float = "H7/g6") -> dict[str, Any]:
     """A YAML-ready product document with exactly ``n_parts`` parts.
 
@@ -106,7 +108,7 @@ def generate_product(n_parts: int, seed: int, *, fit: str | float = "H7/g6") -> 
     mates: list[dict[str, Any]] = []
     rules: list[dict[str, Any]] = []
     base_holes: list[dict[str, Any]] = []
-    base = {"name": "base", "material": "aluminium",
+    base: dict[str, Any] = {"name": "base", "material": "aluminium",
             "geometry": {"type": "box", "size": [size_x, size_y, BASE_T_MM], "holes": base_holes},
             "pose": {"xyz": [0.0, 0.0, BASE_T_MM / 2]}, "fixtured": True}
     parts.append(base)

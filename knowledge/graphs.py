@@ -7,7 +7,7 @@ exported (``nx.node_link_data``). Geometry-derived precedence edges are added by
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import networkx as nx
 
@@ -22,7 +22,7 @@ def liaison_graph(product: Product) -> nx.MultiGraph:
     (``part.feature``), ``fit``, ``clearance_min_m``, ``clearance_max_m``, ``kind``,
     ``pin_diameter_m``.
     """
-    g = nx.MultiGraph(product=product.name)
+    g: nx.MultiGraph[str] = nx.MultiGraph(product=product.name)
     for part in product.parts:
         g.add_node(part.name, mass_kg=part.mass_kg,
                    material=part.material.name if part.material else None,
@@ -51,7 +51,7 @@ def precedence_graph(product: Product) -> nx.DiGraph:
     Every edge carries ``origins``: a list of dicts with ``kind`` ("base" or "rule"),
     ``reason`` and, for rules, ``line`` in the product file.
     """
-    g = nx.DiGraph(product=product.name)
+    g: nx.DiGraph[str] = nx.DiGraph(product=product.name)
     g.add_nodes_from(product.part_names)
     base = product.precedence.base
     if base is not None:
@@ -72,7 +72,7 @@ def graph_to_dot(graph: nx.Graph, name: str) -> str:
     for node in sorted(graph.nodes):
         lines.append(f'  "{node}";')
     arrow = "->" if directed else "--"
-    edges = graph.edges(keys=True, data=True) if graph.is_multigraph() else \
+    edges = cast(nx.MultiGraph, graph).edges(keys=True, data=True) if graph.is_multigraph() else \
         ((u, v, None, d) for u, v, d in graph.edges(data=True))
     for u, v, _key, data in sorted(edges, key=lambda e: (e[0], e[1], str(e[2]))):
         if directed:

@@ -58,6 +58,8 @@ from dataclasses import dataclass
 from numbers import Real
 from typing import Literal
 
+from ..errors import AsmplanError
+
 __all__ = [
     "SUPPORTED_GRADES",
     "Fit",
@@ -70,7 +72,7 @@ __all__ = [
 ]
 
 
-class FitError(ValueError):
+class FitError(AsmplanError, ValueError):
     """A tolerance code, fit designation or nominal size that the ISO 286 table cannot serve."""
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
+from typing import Any
 
 import yaml
 
@@ -36,6 +37,11 @@ def builtin_materials() -> dict[str, Material]:
     table = yaml.safe_load(text)
     return {
         name: Material(name, float(row["density"]), float(row["friction"]),
-                       tuple(float(c) for c in row.get("color", (0.7, 0.7, 0.7))))
+                       _rgb(row.get("color", (0.7, 0.7, 0.7))))
         for name, row in table.items()
     }
+
+
+def _rgb(values: Any) -> tuple[float, float, float]:
+    r, g, b = (float(c) for c in values)
+    return (r, g, b)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import yaml
 
@@ -92,7 +92,8 @@ def _convert(node: yaml.Node, path: PathKey, doc: Located, issues: list[InputIss
         issues.append(InputIssue(doc.file, *doc.marks[path], format_path(path),
                                  f"unsupported YAML tag {node.tag}"))
         return None
-    return yaml.SafeLoader.construct_scalar(_LOADER, node) if node.tag.endswith(":str") else \
+    return yaml.SafeLoader.construct_scalar(_LOADER, cast(yaml.ScalarNode, node)) \
+        if node.tag.endswith(":str") else \
         _LOADER.construct_object(node, deep=True)
 
 

@@ -136,9 +136,9 @@ def _mate_bound(geometry: ProductGeometry, hole_part: str, hole_feature: str, le
                 return 2.0 * polygon_excess(c, n) + NUMERIC_ALLOWANCE_M
         return NUMERIC_ALLOWANCE_M
     report = geometry.level_report(hole_part, level)
-    for h in report.holes:
-        if h.feature == hole_feature:
-            return h.error_m + NUMERIC_ALLOWANCE_M
+    for hc in report.holes:
+        if hc.feature == hole_feature:
+            return hc.error_m + NUMERIC_ALLOWANCE_M
     return report.hausdorff_m * 2.0 + NUMERIC_ALLOWANCE_M
 
 
@@ -170,15 +170,15 @@ def measure_mate_clearance(product: Product, geometry: ProductGeometry, world: C
                          d_hole - d_pin, 2.0 * d, bound, overlap)
 
 
-def check_assembly(product: Product, geometry: ProductGeometry | None = None, level: LevelOfDetail = "exact",
+def check_assembly(product: Product, geometry: ProductGeometry, level: LevelOfDetail = "exact",
                    tolerance_m: float = 1e-6) -> AssemblyCheck:
     """Place all parts at their assembled poses and check mates and interferences.
 
     Parameters
     ----------
     product : Product
-    geometry : ProductGeometry, optional
-        Shared geometry cache (default: a new one).
+    geometry : ProductGeometry
+        The product's shared geometry.
     level : {"exact", "convex", "coarse"}
     tolerance_m : float
         Contacts up to this depth count as touching (1 um).
@@ -187,7 +187,6 @@ def check_assembly(product: Product, geometry: ProductGeometry | None = None, le
     -------
     AssemblyCheck
     """
-    geometry = geometry or ProductGeometry(product)
     t0 = time.perf_counter()
     geometry.build(level)
     t1 = time.perf_counter()
@@ -198,8 +197,8 @@ def check_assembly(product: Product, geometry: ProductGeometry | None = None, le
     allowed: dict[tuple[str, str], tuple[str, float]] = {}
     for m, mc in zip(product.mates, mates, strict=True):
         if m.clearance_min_m < 0:
-            key = tuple(sorted((m.pin_part, m.hole_part)))
-            allowed[key] = (m.name, -0.5 * m.clearance_min_m + mc.bound_m + tolerance_m)
+            first, second = sorted((m.pin_part, m.hole_part))
+            allowed[(first, second)] = (m.name, -0.5 * m.clearance_min_m + mc.bound_m + tolerance_m)
     interferences, intended = [], []
     for c in world.contacts(tolerance_m=tolerance_m):
         ok = allowed.get((c.a, c.b))
@@ -215,7 +214,7 @@ def check_assembly(product: Product, geometry: ProductGeometry | None = None, le
                 # is needed to part them, so they touch and do not interfere
                 continue
             interferences.append(Interference(c.a, c.b, sep, c.point_m, None, c.depth_m,
-                                              tuple(float(x) for x in u)))
+                                              (float(u[0]), float(u[1]), float(u[2]))))
     t4 = time.perf_counter()
     findings: list[Finding] = []
     for name in product.part_names:

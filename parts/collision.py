@@ -40,10 +40,13 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import fcl
 import numpy as np
+from numpy.typing import ArrayLike
 
+from ..knowledge.frames import rotation_between
 from .mesh import hull_faces
 from .pieces import CollisionModel, ConvexPiece
 
@@ -101,12 +104,12 @@ def _tf(T: np.ndarray):
 def _piece_local_extent(piece: ConvexPiece) -> np.ndarray:
     """Corners (8, 3) of the piece's bounding box in the piece frame."""
     if piece.kind == "box":
-        return _BOX_SIGNS * piece.half_extents_m
+        return _BOX_SIGNS * np.asarray(piece.half_extents_m)
     if piece.kind == "cylinder":
         return _BOX_SIGNS * np.array([piece.radius_m, piece.radius_m, 0.5 * piece.length_m])
     if piece.kind == "sphere":
         return _BOX_SIGNS * piece.radius_m
-    v = piece.vertices_m
+    v = np.asarray(piece.vertices_m)
     lo, hi = v.min(axis=0), v.max(axis=0)
     return 0.5 * (lo + hi) + _BOX_SIGNS * 0.5 * (hi - lo)
 
@@ -128,14 +131,15 @@ class FclShapes:
         for pc in model.pieces:
             faces = None
             if pc.kind == "box":
-                g = fcl.Box(*(2.0 * _K * pc.half_extents_m))
+                g = fcl.Box(*(2.0 * _K * np.asarray(pc.half_extents_m)))
             elif pc.kind == "cylinder":
                 g = fcl.Cylinder(_K * pc.radius_m, _K * pc.length_m)
             elif pc.kind == "sphere":
                 g = fcl.Sphere(_K * pc.radius_m)
             else:
-                faces = hull_faces(pc.vertices_m)
-                g = _convex(pc.vertices_m, faces)
+                vertices = np.asarray(pc.vertices_m)
+                faces = hull_faces(vertices)
+                g = _convex(vertices, faces)
             T = np.array(pc.T_part_piece)
             corners = _piece_local_extent(pc) @ T[:3, :3].T + T[:3, 3]
             out.append(_Geom(g, pc, T, corners, bool(np.allclose(T, np.eye(4), atol=0, rtol=0)), faces))
@@ -183,7 +187,7 @@ class _Entry:
         self.bbox[0] = self.aabb[:, 0].min(axis=0)
         self.bbox[1] = self.aabb[:, 1].max(axis=0)
 
-    def obj(self, i: int):
+    def obj(self, i: int | np.integer):
         """FCL object of piece ``i`` at the current pose."""
         o = self.objects[i]
         if not self.fresh[i]:
@@ -241,7 +245,7 @@ class CollisionWorld:
     def __init__(self, shapes: FclShapes | None = None):
         self.shapes = shapes or FclShapes()
         self._entries: dict[str, _Entry] = {}
-        self._meshes: dict[int, tuple[CollisionModel, object]] = {}
+        self._meshes: dict[int, tuple[CollisionModel, Any]] = {}
         # every name's world AABB is a row of one array (each entry's ``bbox`` is a view of its
         # row), so the boxes of many names are one fancy-indexing gather (:meth:`aabbs`)
         self._boxes = np.zeros((16, 2, 3))
@@ -262,8 +266,9 @@ class CollisionWorld:
         geoms = self.shapes.geoms(model)
         if not geoms:
             raise ValueError(f'"{name}": expected a collision model with pieces or a mesh, found none')
-        slot = self._slots.get(name)
-        new = slot is None
+        known = self._slots.get(name)
+        new = known is None
+        slot = -1 if known is None else known
         if new:
             if self._free:
                 slot = self._free.pop()
@@ -420,7 +425,7 @@ class CollisionWorld:
             p_part = g.T_part_geom[:3, 3] + (g.T_part_geom[:3, :3] @ (
                 np.asarray(g.piece.vertices_m).mean(axis=0) if g.piece.kind == "hull" else np.zeros(3)))
         else:
-            p_part = np.asarray(inner.model.mesh_vertices_m[0], dtype=float)
+            p_part = np.asarray(inner.model.mesh_vertices_m, dtype=float)[0]
         p_world = inner.T[:3, :3] @ p_part + inner.T[:3, 3]
         T_outer_world = np.linalg.inv(outer.T)
         p = T_outer_world[:3, :3] @ p_world + T_outer_world[:3, 3]
@@ -475,7 +480,9 @@ class CollisionWorld:
             best = min(best, d)
         return -deepest if best <= 0 else float(best)
 
-    def sweep_blockers(self, name: str, direction: Sequence[float], distance_m: float,
+    # Complexity above C (radon): three tiers (swept boxes, coarse FCL, exact FCL) and the primitive
+    # and BVH cases in one loop, so that each tier prunes the next without intermediate lists.
+    def sweep_blockers(self, name: str, direction: ArrayLike, distance_m: float,
                        others: Iterable[str] | None = None, step_m: float | None = None,
                        tolerance_m: float = 1e-6, resting_m: float = 0.0) -> set[str]:
         """Names that ``name`` hits when translated by ``distance_m`` along ``direction``
@@ -580,9 +587,11 @@ def _swept_geometry(g: _Geom, T_world_part: np.ndarray, delta: np.ndarray):
     u = delta / dist if dist > 0 else np.array([0.0, 0.0, 1.0])
     if dist == 0:
         geom, Tw = g.geometry, T
+    elif pc is None:
+        raise ValueError("a BVH mesh cannot be swept exactly; step it instead")
     elif pc.kind == "sphere":
         Tw = np.eye(4)
-        Tw[:3, :3] = _rotation_z_to(u)
+        Tw[:3, :3] = rotation_between((0.0, 0.0, 1.0), u)
         Tw[:3, 3] = t + 0.5 * delta
         geom = fcl.Capsule(_K * pc.radius_m, _K * dist)
     elif (pc.kind == "box" and _along_local_axis(R, u, dist) is not None) or (
@@ -641,16 +650,6 @@ def circumscribed_prism_points(radius_m: float, length_m: float, tol_m: float = 
                            np.column_stack([ring, np.full(n, h)])])
 
 
-def _rotation_z_to(u: np.ndarray) -> np.ndarray:
-    z = np.array([0.0, 0.0, 1.0])
-    v = np.cross(z, u)
-    c = float(np.dot(z, u))
-    if c > 1 - 1e-12:
-        return np.eye(3)
-    if c < -1 + 1e-12:
-        return np.diag([1.0, -1.0, -1.0])
-    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + vx + vx @ vx / (1.0 + c)
 
 
 def point_distances(vertices_m: np.ndarray, faces: np.ndarray, points_m: np.ndarray) -> np.ndarray:

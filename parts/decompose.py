@@ -35,8 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from asmplan.parts.mesh import convex_hull
-from asmplan.parts.pieces import ConvexPiece
+from .mesh import convex_hull
+from .pieces import ConvexPiece
 
 _AREA_EPS_M2 = 1e-14
 

@@ -46,6 +46,7 @@ from typing import Literal
 
 import numpy as np
 
+from ..errors import AsmplanError
 from ..knowledge import iso286
 from ..knowledge.frames import frame_from_axis, invert, transform_points
 from ..knowledge.model import Feature, Part, Product
@@ -54,7 +55,7 @@ from .mesh import TriangleMesh
 FeatureKey = tuple[str, str]  # (part name, feature name)
 
 
-class GeometryError(ValueError):
+class GeometryError(AsmplanError, ValueError):
     """A part's geometry cannot be built as described; ``part`` names it."""
 
     def __init__(self, part: str, message: str):
@@ -452,7 +453,7 @@ def body_solid(body: BodyShape, tol_m: float, grow_m: float = 0.0):
     """Manifold of one body in the part frame, grown outwards by ``grow_m``."""
     m3 = _m3()
     if body.kind == "box":
-        solid = m3.Manifold.cube(list(2.0 * body.half_extents_m + 2.0 * grow_m), True)
+        solid = m3.Manifold.cube(list(2.0 * np.asarray(body.half_extents_m) + 2.0 * grow_m), True)
     elif body.kind == "cylinder":
         n = sides_for_tolerance(max(s.radius_m for s in body.sections), tol_m)
         solid = revolved(_cylinder_profile(body.sections, body.chamfer_low_m, body.chamfer_high_m), n)

@@ -370,6 +370,8 @@ def _coaxial_holes(body: BodyShape, holes: list[HoleShape]) -> list[tuple[HoleSh
     return out
 
 
+# Complexity above C (radon): per ring and sector the inner polygon and the outer arc are built in one
+# pass; the checks that fall back to the split by hole planes are inline.
 def _tube_pieces(body: BodyShape, holes: list[HoleShape], sides: dict[str, HoleSides], name: str,
                  settings: GeometrySettings) -> list[ConvexPiece]:
     """A cylinder with coaxial holes as rings of convex sectors (body frame z = axis)."""
@@ -434,15 +436,15 @@ def _tube_pieces(body: BodyShape, holes: list[HoleShape], sides: dict[str, HoleS
             phi = 2.0 * math.pi * k / n
             ends = np.array([phi - math.pi / n, phi + math.pi / n])
             arc = phi - math.pi / n + dphi * np.arange(sub + 1)
-            pts = []
+            rings: list[np.ndarray] = []
             for z in zk:
                 ri = inner(z, hs) / math.cos(math.pi / n)
                 ro = outer(z, R) / math.cos(dphi / 2)
                 if ri >= outer(z, R) - 1e-9:
                     raise _Unsupported("tube wall too thin for the hole polygon")
-                pts.append(np.column_stack([ri * np.cos(ends), ri * np.sin(ends), np.full(2, z)]))
-                pts.append(np.column_stack([ro * np.cos(arc), ro * np.sin(arc), np.full(sub + 1, z)]))
-            out.append(_placed_hull(np.concatenate(pts), body.T_part_body, f"{name}/ring{j}/side{k}"))
+                rings.append(np.column_stack([ri * np.cos(ends), ri * np.sin(ends), np.full(2, z)]))
+                rings.append(np.column_stack([ro * np.cos(arc), ro * np.sin(arc), np.full(sub + 1, z)]))
+            out.append(_placed_hull(np.concatenate(rings), body.T_part_body, f"{name}/ring{j}/side{k}"))
     return out
 
 
@@ -659,10 +661,10 @@ def convex_pieces(shape: PartShape, sides: dict[str, HoleSides], settings: Geome
     if shape.is_mesh:
         if mesh_holes:
             try:
-                pieces = _mesh_sector_pieces(mesh, list(mesh_holes), sides)
+                sectors = _mesh_sector_pieces(mesh, list(mesh_holes), sides)
                 notes.append(f"mesh part: sectors around {len(mesh_holes)} declared hole(s), each sector's "
                              "convex hull (outer concavities filled, holes kept as inscribed polygons)")
-                return pieces, tuple(notes)
+                return sectors, tuple(notes)
             except _Unsupported as why:
                 notes.append(f"mesh part: holes not decomposed ({why})")
         hull = mesh.convex_hull
@@ -740,7 +742,8 @@ def model_solid(model: CollisionModel, tol_m: float = 1e-6, grow_m: float = 1e-7
     for pc in model.pieces:
         T = np.ascontiguousarray(pc.T_part_piece[:3, :4])
         if pc.kind == "box":
-            parts.append(m3.Manifold.cube(list(2.0 * pc.half_extents_m + 2.0 * grow_m), True).transform(T))
+            half = np.asarray(pc.half_extents_m)
+            parts.append(m3.Manifold.cube(list(2.0 * half + 2.0 * grow_m), True).transform(T))
         elif pc.kind == "cylinder":
             n = sides_for_tolerance(pc.radius_m, tol_m)
             R = (pc.radius_m + grow_m) / math.cos(math.pi / n)
@@ -751,7 +754,7 @@ def model_solid(model: CollisionModel, tol_m: float = 1e-6, grow_m: float = 1e-7
             inner = float(np.min(np.linalg.norm(pts - centre, axis=1)))
             pts = centre + (pts - centre) * (1.0 + grow_m / max(inner, 1e-9))
             parts.append(m3.Manifold.hull_points(np.ascontiguousarray(pts)))
-    if model.mesh_vertices_m is not None:
+    if model.mesh_vertices_m is not None and model.mesh_faces is not None:
         parts.append(trimesh_to_manifold(TriangleMesh(model.mesh_vertices_m, model.mesh_faces)))
     return m3.Manifold.batch_boolean(parts, m3.OpType.Add)
 

@@ -24,6 +24,8 @@ from functools import cached_property
 
 import numpy as np
 
+from ..errors import AsmplanError
+
 _TOL_ZERO = float(np.finfo(np.float64).resolution * 100)  # trimesh.util.TOL_ZERO, 1e-13
 _TOL_MERGE = 1e-8  # trimesh.constants.tol.merge
 
@@ -45,7 +47,7 @@ def _unitize(vectors: np.ndarray, check_valid: bool = False):
     return unit
 
 
-class DegenerateHullError(ValueError):
+class DegenerateHullError(AsmplanError, ValueError):
     """The points span no volume (fewer than 4 points, or all on one plane or line)."""
 
 

@@ -30,13 +30,18 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..errors import AsmplanError
 from .geometry import GeometrySettings, manifold_to_trimesh, trimesh_to_manifold
 
+if TYPE_CHECKING:
+    import trimesh
 
-class MeshFileError(ValueError):
+
+class MeshFileError(AsmplanError, ValueError):
     """A mesh file cannot be used; ``path`` and ``reason`` say which and why."""
 
     def __init__(self, path: Path | str, reason: str):
@@ -59,7 +64,7 @@ class LoadedMesh:
         Repairs, unit decisions and simplifications applied.
     """
 
-    mesh: object
+    mesh: trimesh.Trimesh
     source_triangles: int
     notes: tuple[str, ...] = field(default_factory=tuple)
 
@@ -140,7 +145,7 @@ def _read(path: Path, step_deflection_m: float):
         _check_step_frame(path)
     try:
         # OpenCASCADE meshes in millimetres whatever the file's unit
-        extra = {"tol_linear": step_deflection_m * 1e3} if is_step else {}
+        extra: dict[str, Any] = {"tol_linear": step_deflection_m * 1e3} if is_step else {}
         loaded = trimesh.load(str(path), force="mesh", process=False, **extra)
     except FileNotFoundError as exc:
         if not is_step:

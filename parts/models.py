@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from functools import cached_property
+from typing import TypeVar, cast
 
 import numpy as np
 
@@ -53,6 +54,8 @@ from .mesh import TriangleMesh
 from .meshfile import LoadedMesh, MeshFileError, load_mesh_file
 from .pieces import CollisionModel, ConvexPiece, LevelOfDetail
 
+_T = TypeVar("_T")
+
 
 class ProductGeometry:
     """Lazily computed, cached geometry of every part of ``product``.
@@ -78,13 +81,13 @@ class ProductGeometry:
         self.timings_s: dict[str, float] = {}
 
     # -- plumbing -------------------------------------------------------------------------------
-    def _get(self, kind: str, part: str, make):
+    def _get(self, kind: str, part: str, make: Callable[[], _T]) -> _T:
         key = (kind, part)
         if key not in self._cache:
             t = time.perf_counter()
             self._cache[key] = make()
             self.timings_s[kind] = self.timings_s.get(kind, 0.0) + time.perf_counter() - t
-        return self._cache[key]
+        return cast(_T, self._cache[key])
 
     def _shared(self, kind: str, content: object, make):
         """``make()`` once per distinct ``content`` (a value of :func:`_content_key`)."""
@@ -120,6 +123,8 @@ class ProductGeometry:
         """The repaired mesh of a mesh-file part (raises ProductError when unusable)."""
         def make() -> LoadedMesh:
             g = self._part(part).geometry
+            if g.mesh_file is None:
+                raise self._input_error(part, "geometry: expected a mesh file, found none")
             try:
                 return load_mesh_file(g.mesh_file, g.mesh_scale, self.settings)
             except MeshFileError as exc:
@@ -152,7 +157,7 @@ class ProductGeometry:
     def mesh(self, part: str) -> TriangleMesh:
         """The exact watertight mesh of the part (part frame, metres); ``.to_trimesh()`` gives
         it as a trimesh."""
-        def make():
+        def make() -> TriangleMesh:
             if self.shape(part).is_mesh:
                 loaded = self.loaded_mesh(part).mesh
                 return TriangleMesh(loaded.vertices, loaded.faces)

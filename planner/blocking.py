@@ -39,7 +39,6 @@ implements it with FCL collision models from :mod:`asmplan.parts`.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -213,14 +212,6 @@ class BlockingTable:
                 raise ValueError(f'BlockingTable: part "{p}": expected one blocker set and one '
                                  f"table flag per direction ({n_dirs}), found {n_block} and "
                                  f"{len(self.table_blocked[p])}")
-
-    def free_directions(self, part: str, present: Iterable[str]) -> tuple[RemovalDirection, ...]:
-        """Directions along which ``part`` can be removed when exactly ``present`` (plus the
-        part itself) is assembled, i.e. along whose opposite it can be inserted last."""
-        s = frozenset(present)
-        return tuple(d for d, b, t in zip(self.directions[part], self.blockers[part],
-                                          self.table_blocked[part], strict=True)
-                     if not t and not (b & s))
 
     def as_dict(self) -> dict[str, list[dict[str, object]]]:
         """JSON-safe: per part, per direction, removal/insertion labels and blockers."""

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import AsmplanError
+
 
 def _pose_list(T: np.ndarray | None) -> list[list[float]] | None:
     return None if T is None else np.asarray(T, dtype=float).round(9).tolist()
@@ -44,7 +46,7 @@ class CollidingPair:
         return f"{self.a} / {self.b}{depth}{')' if depth else ''}"
 
 
-class PlanningError(Exception):
+class PlanningError(AsmplanError):
     """Base of all planning failures. ``step`` is the step index (0-based) or None;
     ``alternatives`` lists other part orders that were tried and how they failed."""
 

@@ -66,7 +66,7 @@ class FclOracle:
         Bounds of the BVH mesh step, m.
     """
 
-    def __init__(self, product: Product, geometry: ProductGeometry | None = None, *,
+    def __init__(self, product: Product, geometry: ProductGeometry, *,
                  measured: bool = False, tolerance_m: float = 1e-6,
                  min_step_m: float = 5e-6, max_step_m: float = 1e-4,
                  resting_tolerance_m: float = 2e-5):
@@ -79,7 +79,7 @@ class FclOracle:
             raise ValueError(f"min_step_m, max_step_m: expected 0 < min <= max, found "
                              f"{min_step_m!r}, {max_step_m!r}")
         self.product = product
-        self.geometry = geometry if geometry is not None else ProductGeometry(product)
+        self.geometry = geometry
         self.tolerance_m = tolerance_m
         self.world = CollisionWorld(self.geometry.fcl_shapes)
         for name in product.part_names:

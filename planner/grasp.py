@@ -223,6 +223,8 @@ def _geometric_axes(surface: GraspSurface, min_area_fraction: float) -> list[np.
     return cands
 
 
+# Complexity above C (radon): a lazy best-first generator: hint, faces, finger placements and the lead
+# limit are filtered inline so that a rejected candidate costs nothing.
 def iter_grasps(
     part: str,
     surface: GraspSurface,
@@ -361,7 +363,8 @@ def iter_grasps(
             for u, v in centres:
                 known = base + (math.hypot(u, v) / size if load is None
                                 else load.torque_cost(math.hypot(u, v), mu, W))
-                if reach is not None and float((u * x + v * a) @ ins) + reach > lead_limit_m:
+                if (reach is not None and lead_limit_m is not None
+                        and float((u * x + v * a) @ ins) + reach > lead_limit_m):
                     known += 1.0
                 todo.append((known + area_floor, len(todo), fi, u, v, is_hint, known))
     todo.sort(key=lambda t: (t[0], t[1]))

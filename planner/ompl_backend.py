@@ -30,6 +30,8 @@ from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
 
+from .trajectory import quat_xyzw_from_matrix
+
 PLANNERS: dict[str, Callable[[ob.SpaceInformation], ob.Planner]] = {
     "RRTConnect": og.RRTConnect,
     "RRT": og.RRT,
@@ -108,29 +110,12 @@ class OmplResult:
 
 
 def _set_state(state: ob.SE3State, T: np.ndarray) -> None:
-    q = _quat_xyzw(T[:3, :3])
+    q = quat_xyzw_from_matrix(T[:3, :3])
     state.setXYZ(float(T[0, 3]), float(T[1, 3]), float(T[2, 3]))
     rot = state.rotation()
     rot.x, rot.y, rot.z, rot.w = (float(v) for v in q)
 
 
-def _quat_xyzw(R: np.ndarray) -> np.ndarray:
-    """Unit quaternion (x, y, z, w) of a rotation matrix (Shepperd's method)."""
-    tr = R[0, 0] + R[1, 1] + R[2, 2]
-    if tr > 0:
-        s = math.sqrt(tr + 1.0) * 2.0
-        q = [(R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s, 0.25 * s]
-    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
-        s = math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) * 2.0
-        q = [0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s, (R[2, 1] - R[1, 2]) / s]
-    elif R[1, 1] > R[2, 2]:
-        s = math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2]) * 2.0
-        q = [(R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s, (R[0, 2] - R[2, 0]) / s]
-    else:
-        s = math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2.0
-        q = [(R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s, (R[1, 0] - R[0, 1]) / s]
-    out = np.array(q, dtype=float)
-    return out / np.linalg.norm(out)
 
 
 def pose_from_xyz_quat(x: float, y: float, z: float, qx: float, qy: float, qz: float,

@@ -6,13 +6,14 @@ folder, fsync, ``os.replace``) and read back with :meth:`Plan.read`; the same pr
 and seed give byte-identical files. The format is documented in ``docs/plan-format.md``.
 
 Wall-clock planning times are kept out of the file (they would break byte identity); they
-are returned next to the plan by :func:`asmplan.planner.motion.plan_product`.
+are returned next to the plan by :func:`asmplan.planner.product.plan_product`.
 """
 
 from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any, Literal
@@ -392,3 +393,29 @@ class Plan:
     @classmethod
     def read(cls, path: str | Path) -> Plan:
         return cls.from_json(Path(path).read_text(encoding="utf-8"))
+
+
+@dataclass(frozen=True, eq=False)
+class AssemblyState:
+    """Where things are while one step runs, kept apart from the static product.
+
+    ``T_world_part``: the pose (4, 4) of every part, world frame, m; ``placed``: the parts in
+    place (fixtured or assembled by an earlier step).
+    """
+
+    T_world_part: Mapping[str, np.ndarray]
+    placed: frozenset[str]
+
+
+def assembly_state(plan: Plan, index: int) -> AssemblyState:
+    """The :class:`AssemblyState` while step ``index`` of ``plan`` runs.
+
+    Parts in place: fixtured ones (kind "fixture", in place from the start) and those of the
+    earlier steps, at their final (assembled) poses; the others at their start poses.
+    """
+    placed = {s.part for s in plan.steps[:index]} | {s.part for s in plan.steps
+                                                     if s.kind == "fixture"}
+    placed.discard(plan.steps[index].part)
+    poses = {s.part: (s.T_world_final if s.part in placed else s.T_world_start)
+             for s in plan.steps}
+    return AssemblyState(poses, frozenset(placed))

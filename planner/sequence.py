@@ -464,6 +464,8 @@ def _blocked_text(table: BlockingTable, part: str, given: frozenset[str]) -> lis
     return rows
 
 
+# Complexity above C (radon): a fixpoint over parts and removal directions; each branch is one
+# precedence reason (geometry, stability, fixture) with its evidence.
 def _derive(product: Product, table: BlockingTable, graph: nx.DiGraph) -> int:
     """Add geometry and stability edges to ``graph`` up to a fixpoint; returns how many.
 
@@ -556,6 +558,8 @@ def _rules_on_paths(graph: nx.DiGraph, sources: Iterable[str], target: str) -> l
     return [found[k] for k in sorted(found, key=lambda k: found[k].source_line)]
 
 
+# Complexity above C (radon): two phases (the physical graph, then the knowledge rules), each with its
+# own conflict report.
 def derive_precedence(product: Product, table: BlockingTable) -> nx.DiGraph:
     """Knowledge precedence completed with geometry and stability edges (see module doc).
 
@@ -569,7 +573,7 @@ def derive_precedence(product: Product, table: BlockingTable) -> nx.DiGraph:
     knowledge = precedence_graph(product)
     rules = {(r.before, r.after): r for r in product.precedence.rules}
     # phase 1: the physical graph: base + geometry + stability
-    physical = nx.DiGraph()
+    physical: nx.DiGraph[str] = nx.DiGraph()
     physical.graph.update(knowledge.graph)
     physical.add_nodes_from(knowledge.nodes)
     for u, v, d in knowledge.edges(data=True):
@@ -659,6 +663,8 @@ class _Label:
 class _Compiled:
     """The planning problem as bit masks (part i <-> bit i, product order)."""
 
+    # Complexity above C (radon): compiles product, blocking table and precedence into bit masks once;
+    # each block fills one table the search reads.
     def __init__(self, product: Product, table: BlockingTable, graph: nx.DiGraph,
                  settings: SequenceSettings, access: GripperAccess | None = None):
         self.product, self.table, self.settings = product, table, settings
@@ -951,6 +957,8 @@ def _key(lab: _Label) -> tuple[float, tuple[int, ...]]:
     return (round(lab.cost, 9), lab.key)
 
 
+# Complexity above C (radon): the exact layered search with k best labels per state merged through a
+# heap; the state bookkeeping is shared by every branch.
 def _exhaustive(c: _Compiled, k: int) -> tuple[list[_Label], int, int, list[tuple[str, str]], int] | None:
     """Enumerate reachable states; None when more than ``max_states``.
 
@@ -1016,12 +1024,13 @@ def _exhaustive(c: _Compiled, k: int) -> tuple[list[_Label], int, int, list[tupl
             while heap and len(out) < k:
                 _c, _k, i, j = heapq.heappop(heap)
                 labs, delta, t, d = sources[i]
-                lab = labs[j]
-                out.append(_Label(lab.cost + delta, (*lab.key, c.rank[p]), (*lab.order, p),
-                                  (*lab.dirs, d), tuple(a + b for a, b in zip(lab.terms, t, strict=True))))
+                src = labs[j]
+                out.append(_Label(src.cost + delta, (*src.key, c.rank[p]), (*src.order, p),
+                                  (*src.dirs, d), tuple(a + b for a, b in zip(src.terms, t, strict=True))))
                 if j + 1 < len(labs):
-                    nxt = labs[j + 1]
-                    heapq.heappush(heap, (round(nxt.cost + delta, 9), nxt.key, i, j + 1))
+                    following = labs[j + 1]
+                    heapq.heappush(heap, (round(following.cost + delta, 9), following.key, i,
+                                          j + 1))
             labels[(T, p)] = out
     final = [lab for last in range(c.n) for lab in labels.get((c.full, last), [])]
     final.sort(key=_key)
@@ -1056,7 +1065,7 @@ def _beam(c: _Compiled, width: int, k: int) -> tuple[list[_Label], int, int]:
             dead = min((done for done, _ in nodes),
                        key=lambda done: (bin(done).count("1"), sorted(c.bits(done))))
             return [], expanded, dead
-        cand = []
+        cand: list[tuple[float, tuple[int, ...], int, _Label]] = []
         for (T, _p), labs in buckets.items():
             labs.sort(key=_key)
             hT = c.h(T)
@@ -1198,8 +1207,8 @@ def plan_sequence(product: Product, oracle: GeometryOracle | None = None,
     Parameters
     ----------
     product : the validated product.
-    oracle : geometry; default: :class:`asmplan.planner.fcl_oracle.FclOracle` (FCL on the
-        exact collision models of :mod:`asmplan.parts`).
+    oracle : geometry, e.g. :class:`asmplan.planner.fcl_oracle.FclOracle` (FCL on the exact
+        collision models of :mod:`asmplan.parts`); not needed when ``table`` is given.
     settings : weights and limits (default :class:`SequenceSettings`).
     table : a precomputed blocking table (skips the collision sweeps).
 
@@ -1215,9 +1224,8 @@ def plan_sequence(product: Product, oracle: GeometryOracle | None = None,
     t0 = time.perf_counter()
     if table is None:
         if oracle is None:
-            from .fcl_oracle import FclOracle
-
-            oracle = FclOracle(product)
+            raise TypeError("plan_sequence: expected a geometry oracle or a blocking table, found "
+                            "neither")
         table = blocking_table(product, oracle, support_probe_m=settings.support_probe_m,
                                table_contact_m=settings.table_contact_m)
     t1 = time.perf_counter()

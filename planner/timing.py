@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -374,10 +373,3 @@ def max_point_speed_m_s(traj: Trajectory, radius_m: float) -> np.ndarray:
 def phase_durations_s(traj: Trajectory) -> dict[str, float]:
     """Duration (s) of each phase by name."""
     return {p.name: p.t_end_s - p.t_start_s for p in traj.phases}
-
-
-def path_poses(traj: Trajectory, names: Sequence[str]) -> np.ndarray:
-    """The samples (M, 4, 4) of the named phases, in time order."""
-    idx = traj.phase_indices_at(traj.t_s)
-    keep = np.isin(np.array([traj.phases[i].name for i in idx]), list(names))
-    return traj.T_world_gripper[keep]

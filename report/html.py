@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import jinja2
 
@@ -18,6 +18,9 @@ from ..planner.plan import Plan
 from . import plots
 from .views import Views
 
+if TYPE_CHECKING:
+    from ..parts.models import ProductGeometry
+
 
 @dataclass
 class ReportInputs:
@@ -25,7 +28,7 @@ class ReportInputs:
     stage did not run or failed (``failure`` then says why)."""
 
     product: Product
-    geometry: Any
+    geometry: ProductGeometry
     sequence: Any | None = None
     plan: Plan | None = None
     results: Any | None = None
@@ -64,7 +67,11 @@ def _mates_rows(product: Product) -> list[dict[str, Any]]:
 def _sequence_block(inp: ReportInputs) -> dict[str, Any] | None:
     if inp.plan is None and inp.sequence is None:
         return None
-    order = list(inp.plan.sequence) if inp.plan is not None else list(inp.sequence.best.order)
+    if inp.plan is not None:
+        order = list(inp.plan.sequence)
+    else:
+        assert inp.sequence is not None  # one of the two is set (checked above)
+        order = list(inp.sequence.best.order)
     note = inp.plan.sequence_note if inp.plan is not None else ""
     edges = []
     count = None
@@ -83,6 +90,8 @@ def _sequence_block(inp: ReportInputs) -> dict[str, Any] | None:
     return {"order": order, "note": note, "count": count, "edges": edges}
 
 
+# Complexity above C (radon): one report row per step, each field formatted where it is shown (absent
+# values as '-').
 def _step_rows(inp: ReportInputs, views: Views | None, folder: Path) -> list[dict[str, Any]]:
     if inp.plan is None:
         return []

@@ -123,24 +123,6 @@ def insertion_plot(record: StepRecord, path: str | Path, *, target_depth_m: floa
     return _save(fig, path)
 
 
-def rate_plot(x: np.ndarray, rate: np.ndarray, low: np.ndarray, high: np.ndarray, path: str | Path, *,
-              xlabel: str, title: str = "", marks: Sequence[tuple[float, str]] = ()) -> Path:
-    """Success rate with its confidence band against one varied factor (sweeps)."""
-    fig, ax = _figure(6.5, 3.0)
-    ax.fill_between(x, low, high, color="#1f77b4", alpha=0.2, lw=0, label="95 % interval")
-    ax.plot(x, rate, "o-", color="#1f77b4", ms=3, lw=1.2, label="success rate")
-    for value, label in marks:
-        ax.axvline(value, color="#d62728", ls="--", lw=1.0)
-        ax.text(value, 0.02, f" {label}", color="#d62728", fontsize=7, rotation=90, va="bottom")
-    ax.set_ylim(-0.02, 1.02)
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel("success rate")
-    ax.legend(loc="upper right", fontsize=7)
-    if title:
-        ax.set_title(title, fontsize=9)
-    return _save(fig, path)
-
-
 _UNITS = {"pose_lateral_m": (1e3, "mm"), "pose_angular_rad": (180.0 / math.pi, "deg")}
 
 

@@ -710,7 +710,7 @@ def save_png(image: np.ndarray, path: str | os.PathLike[str]) -> Path:
     """
     from PIL import Image
 
-    from asmplan.fileio import atomic_write_bytes
+    from ..fileio import atomic_write_bytes
 
     pixels = np.asarray(image)
     if pixels.dtype == bool and pixels.ndim == 2:

@@ -8,17 +8,20 @@ poses of a :class:`~asmplan.planner.plan.Plan`, and rendered offscreen by
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import trimesh
 
 from ..knowledge.model import Product
+from ..parts.cell import gripper_model
 from ..parts.pieces import CollisionModel
-from ..planner.motion import gripper_model
 from ..planner.plan import Plan, Step
 from .render import Camera, SceneItem, exploded, fit_camera, render, save_png
+
+if TYPE_CHECKING:
+    from ..parts.models import ProductGeometry
 
 GRIPPER_RGBA = (0.25, 0.27, 0.30, 1.0)
 HELD_RGBA = (0.95, 0.55, 0.10, 1.0)
@@ -43,16 +46,7 @@ def pieces_mesh(model: CollisionModel) -> trimesh.Trimesh:
             m = trimesh.convex.convex_hull(np.asarray(piece.vertices_m))
         m.apply_transform(piece.T_part_piece)
         meshes.append(m)
-    return trimesh.util.concatenate(meshes)
-
-
-@dataclass(frozen=True)
-class ViewSet:
-    """The images of a product and its steps (paths relative to the report folder)."""
-
-    assembled: str
-    exploded: str
-    steps: dict[int, dict[str, str]]
+    return cast(trimesh.Trimesh, trimesh.util.concatenate(meshes))
 
 
 class Views:
@@ -75,7 +69,7 @@ class Views:
         if rgba is None:
             index = self.product.part_names.index(part)
             rgba = (*PALETTE[index % len(PALETTE)], 1.0)
-        color = tuple(rgba)
+        color = (float(rgba[0]), float(rgba[1]), float(rgba[2]), float(rgba[3]))
         return SceneItem(self.mesh(part), np.asarray(T_world_part, float), color, name=part)
 
     def gripper_item(self, step: Step, T_world_part: np.ndarray, opening: str) -> SceneItem:
@@ -143,13 +137,10 @@ class Views:
         return out
 
 
-def render_product(product: Product, path: str | Path, geometry=None, *, exploded_view: bool = False,
+def render_product(product: Product, path: str | Path, geometry: ProductGeometry, *,
+                   exploded_view: bool = False,
                    width_px: int = 800, height_px: int = 600) -> Path:
     """Render the assembled (or exploded) product offscreen to a PNG at ``path``."""
-    if geometry is None:
-        from ..parts.models import ProductGeometry
-
-        geometry = ProductGeometry(product)
     views = Views(product, geometry, width_px, height_px)
     items = views.exploded_items() if exploded_view else views.assembled_items()
     return views.shoot(items, Path(path))

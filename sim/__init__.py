@@ -3,7 +3,7 @@
 Public API (imported lazily, so that ``import asmplan.sim.fidelity`` does not load pybullet)::
 
     from asmplan.sim import simulate_plan, preset
-    results = simulate_plan(plan, product, fidelity=preset("balanced"))
+    results = simulate_plan(plan, product, geometry, fidelity=preset("balanced"))
     results.write("results.json")
 
 * :func:`simulate_plan`, :class:`PlanResults`, :class:`StepResult` (:mod:`asmplan.sim.simulate`)
@@ -23,8 +23,8 @@ _EXPORTS = {
     "Fidelity": "asmplan.sim.fidelity",
     "preset": "asmplan.sim.fidelity",
     "simulate_plan": "asmplan.sim.simulate",
-    "PlanResults": "asmplan.sim.simulate",
-    "StepResult": "asmplan.sim.simulate",
+    "PlanResults": "asmplan.sim.results",
+    "StepResult": "asmplan.sim.results",
 }
 
 __all__ = [
@@ -38,10 +38,11 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from asmplan.sim.bullet import BulletWorld
-    from asmplan.sim.execute import execute_step
-    from asmplan.sim.fidelity import Fidelity, preset
-    from asmplan.sim.simulate import PlanResults, StepResult, simulate_plan
+    from .bullet import BulletWorld
+    from .execute import execute_step
+    from .fidelity import Fidelity, preset
+    from .results import PlanResults, StepResult
+    from .simulate import simulate_plan
 
 
 def __getattr__(name: str) -> Any:

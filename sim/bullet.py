@@ -62,11 +62,13 @@ from types import TracebackType
 from typing import Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from asmplan.knowledge.frames import invert
-from asmplan.parts.pieces import ConvexPiece
-from asmplan.planner.trajectory import matrix_from_quat_xyzw, quat_xyzw_from_matrix
-from asmplan.sim.fidelity import Fidelity
+from ..errors import AsmplanError
+from ..knowledge.frames import invert
+from ..parts.pieces import ConvexPiece
+from ..planner.trajectory import matrix_from_quat_xyzw, quat_xyzw_from_matrix
+from .fidelity import Fidelity
 
 
 def _import_pybullet_quietly():
@@ -104,7 +106,7 @@ _JOINT_TYPES = {
 }
 
 
-class BulletError(RuntimeError):
+class BulletError(AsmplanError, RuntimeError):
     """PyBullet refused a request; carries what was asked."""
 
 
@@ -177,7 +179,7 @@ def _hulls_obj_text(hulls: Sequence[ConvexPiece]) -> str:
     text = _OBJ_CACHE.get(key)
     if text is not None:
         return text
-    from asmplan.parts.mesh import convex_hull
+    from ..parts.mesh import convex_hull
 
     lines = []
     offset = 1
@@ -242,7 +244,7 @@ def _piece_box(piece: ConvexPiece) -> tuple[np.ndarray, np.ndarray]:
     return T[:3, 3] - reach, T[:3, 3] + reach
 
 
-def bounding_radius_m(group: Sequence[ConvexPiece], com_m: Sequence[float],
+def bounding_radius_m(group: Sequence[ConvexPiece], com_m: ArrayLike,
                       R_link_inertial: np.ndarray) -> float:
     """Bullet's bounding radius ("angular motion disc") of one collider, m.
 
@@ -594,7 +596,7 @@ class BulletWorld:
         pieces: Sequence[ConvexPiece],
         mass_kg: float,
         T_world_body: np.ndarray,
-        com_m: Sequence[float] | None = None,
+        com_m: ArrayLike | None = None,
         inertia_kgm2: np.ndarray | None = None,
         friction: float = 0.5,
         spinning_friction: float | None = None,
@@ -1098,7 +1100,8 @@ class BulletWorld:
         return np.array([s[1] for s in st], dtype=float)
 
     def apply_force(
-        self, body: int, link: int, force_N: Sequence[float], position_m: Sequence[float]
+        self, body: int, link: int, force_N: Sequence[float] | np.ndarray,
+        position_m: Sequence[float] | np.ndarray,
     ) -> None:
         """Apply a world-frame force at a world point during the next step only."""
         pybullet.applyExternalForce(

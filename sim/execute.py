@@ -35,17 +35,18 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from asmplan.knowledge.frames import invert
-from asmplan.planner.trajectory import (
+from ..knowledge.frames import invert
+from ..planner.trajectory import (
     OPEN_PHASES,
     Trajectory,
     quat_xyzw_from_matrix,
     rotation_angle_rad,
 )
-from asmplan.sim.bullet import BulletWorld
-from asmplan.sim.gripper import FINGER_LINKS, Gripper
-from asmplan.sim.records import HELD_PHASES, StepOutcome, StepRecord, SuccessCriteria
+from .bullet import BulletWorld
+from .gripper import FINGER_LINKS, Gripper
+from .records import HELD_PHASES, StepOutcome, StepRecord, SuccessCriteria
 
 _SPEED_MARGIN_MPS = 0.1
 
@@ -136,7 +137,7 @@ def execute_step(
     trajectory: Trajectory,
     criteria: SuccessCriteria | None = None,
     T_world_part_target: np.ndarray | None = None,
-    mate_axis_world: Sequence[float] | None = None,
+    mate_axis_world: ArrayLike | None = None,
     warnings: Sequence[str] = (),
 ) -> tuple[StepRecord, StepOutcome]:
     """Drive the gripper along ``trajectory`` and judge the step.

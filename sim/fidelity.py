@@ -31,9 +31,9 @@ Below it an interference fit may be pushed through by penetration (a wrong "succ
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
-from asmplan.parts.pieces import LevelOfDetail
+from ..parts.pieces import LevelOfDetail
 
 _LODS = ("exact", "convex", "coarse")
 
@@ -162,15 +162,6 @@ class Fidelity:
         """Time between two record rows, s."""
         return self.dt_s * self.record_every_steps
 
-    def replace(self, **changes: object) -> Fidelity:
-        """Copy with some fields changed (validated again)."""
-        known = {f.name for f in fields(self)}
-        unknown = set(changes) - known
-        if unknown:
-            raise ValueError(f"Fidelity.replace: unknown fields {sorted(unknown)}")
-        values = {f.name: getattr(self, f.name) for f in fields(self)}
-        values.update(changes)
-        return Fidelity(**values)  # type: ignore[arg-type]
 
 
 FAST = Fidelity(

@@ -30,9 +30,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from asmplan.parts.pieces import ConvexPiece
-from asmplan.planner.trajectory import quat_xyzw_from_matrix
-from asmplan.sim.bullet import BulletWorld, LinkSpec
+from ..parts.pieces import ConvexPiece
+from ..planner.trajectory import quat_xyzw_from_matrix
+from .bullet import BulletWorld, LinkSpec
 
 FINGER_LINKS: tuple[int, int] = (0, 1)
 """PyBullet link indices of finger 1 (+y) and finger 2 (-y)."""

@@ -96,25 +96,34 @@ Bodies are built from the :class:`~asmplan.parts.pieces.ConvexPiece` tuples of
 from __future__ import annotations
 
 import math
-import weakref
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from asmplan.knowledge.frames import invert
-from asmplan.knowledge.model import Gripper as GripperResource
-from asmplan.knowledge.model import Product
-from asmplan.parts.collision import CollisionWorld
-from asmplan.parts.geometry import PartShape
-from asmplan.parts.lod import convex_pieces
-from asmplan.parts.pieces import CollisionModel, ConvexPiece, LevelOfDetail
-from asmplan.planner.motion import gripper_model, table_model
-from asmplan.planner.plan import Plan, Step
-from asmplan.planner.trajectory import OPEN_PHASES
-from asmplan.sim.bullet import BulletWorld
-from asmplan.sim.fidelity import Fidelity
-from asmplan.sim.gripper import GripperSpec
+from ..errors import AsmplanError
+from ..knowledge.model import Gripper as GripperResource
+from ..knowledge.model import Product
+from ..parts.cell import gripper_model, table_model
+from ..parts.collision import CollisionWorld
+from ..parts.pieces import CollisionModel, ConvexPiece, LevelOfDetail
+from ..planner.plan import AssemblyState, Plan, Step, assembly_state
+from .bodies import (
+    aabb,
+    box_distance_m,
+    empty_holes,
+    physics_model,
+    piece_corners,
+    swept_boxes,
+    transform_points,
+)
+from .bullet import BulletWorld
+from .fidelity import Fidelity
+from .gripper import GripperSpec
+from .nest import tray_nest
+
+if TYPE_CHECKING:
+    from ..parts.models import ProductGeometry
 
 Role = Literal["held", "mate", "touching", "support", "obstacle", "table", "nest"]
 ROLES: tuple[str, ...] = ("held", "mate", "touching", "support", "obstacle", "table", "nest")
@@ -124,7 +133,7 @@ REQUIRED_ROLES: tuple[str, ...] = ("held", "mate", "touching", "support", "table
 _DETAIL = {"coarse": 0, "convex": 1, "exact": 2}
 
 
-class PlanProductMismatchError(ValueError):
+class PlanProductMismatchError(AsmplanError, ValueError):
     """The plan does not belong to the product (names of the product or its parts differ)."""
 
 
@@ -306,7 +315,7 @@ def gripper_spec(resource: GripperResource, max_commanded_N: float = 0.0) -> Gri
 
     Pads are the finger boxes (``finger_size_m``: width x, thickness y, length z, centred on
     the TCP along z), the palm sits right behind them (``palm_gap_m = 0``) as in
-    :func:`asmplan.planner.motion.gripper_model`; stroke, finger friction and mass come from
+    :func:`asmplan.parts.cell.gripper_model`; stroke, finger friction and mass come from
     the resource. ``max_clamp_force_N`` is the resource's ``max_force_N`` or the largest
     commanded force if larger (the plan is executed as planned; the excess is a warning).
     """
@@ -326,278 +335,8 @@ def gripper_spec(resource: GripperResource, max_commanded_N: float = 0.0) -> Gri
 
 
 # ---------------------------------------------------------------------------------------------
-# Geometry helpers
-# ---------------------------------------------------------------------------------------------
-def piece_corners(pc: ConvexPiece) -> np.ndarray:
-    """Points (n, 3) in the part frame whose convex hull contains the piece."""
-    if pc.kind == "hull":
-        assert pc.vertices_m is not None
-        local = pc.vertices_m
-    else:
-        if pc.kind == "box":
-            assert pc.half_extents_m is not None
-            he = pc.half_extents_m
-        elif pc.kind == "cylinder":
-            he = np.array([pc.radius_m, pc.radius_m, pc.length_m / 2])
-        else:
-            he = np.full(3, pc.radius_m)
-        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-        local = signs * he
-    return local @ pc.T_part_piece[:3, :3].T + pc.T_part_piece[:3, 3]
-
-
-def _transform(points: np.ndarray, T: np.ndarray) -> np.ndarray:
-    return points @ T[:3, :3].T + T[:3, 3]
-
-
-def _aabb(points: np.ndarray) -> np.ndarray:
-    return np.stack([points.min(axis=0), points.max(axis=0)])
-
-
-def box_distance_m(a: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-    """Euclidean distance between AABB ``a`` (2, 3) and each of ``boxes`` (n, 2, 3), m."""
-    gap = np.maximum(0.0, np.maximum(boxes[:, 0] - a[1], a[0] - boxes[:, 1]))
-    return np.linalg.norm(gap, axis=1)
-
-
-def held_part_poses(step: Step, t_s: np.ndarray) -> np.ndarray:
-    """Pose (n, 4, 4) of the held part at times ``t_s``: at its start pose until the clamp,
-    carried by the gripper through the held phases, at its final pose after the release."""
-    assert step.trajectory is not None and step.grasp is not None
-    traj = step.trajectory
-    T_grip = traj.poses_at(t_s)
-    carried = T_grip @ invert(step.grasp.T_part_gripper)
-    clamp0 = traj.phase_span("clamp").t_start_s
-    idx = traj.phase_indices_at(t_s)
-    out = carried.copy()
-    names = [p.name for p in traj.phases]
-    for k, t in enumerate(t_s):
-        if names[idx[k]] in OPEN_PHASES:
-            out[k] = step.T_world_start if t <= clamp0 else step.T_world_final
-    return out
-
-
-def swept_boxes(step: Step, part_points: np.ndarray, gripper_points: np.ndarray) -> np.ndarray:
-    """Bounding boxes (n - 1, 2, 3) covering the held part and the open gripper between two
-    consecutive trajectory samples (the box of both samples' boxes), world frame, m."""
-    assert step.trajectory is not None
-    t = step.trajectory.t_s
-    T_part = held_part_poses(step, t)
-    T_grip = step.trajectory.T_world_gripper
-    lo_hi = []
-    for T, points in ((T_part, part_points), (T_grip, gripper_points)):
-        pts = np.matmul(T[:, :3, :3], np.ascontiguousarray(points.T))  # (n, 3, k)
-        lo_hi.append((pts.min(axis=2) + T[:, :3, 3], pts.max(axis=2) + T[:, :3, 3]))
-    lo = np.minimum(lo_hi[0][0], lo_hi[1][0])
-    hi = np.maximum(lo_hi[0][1], lo_hi[1][1])
-    return np.stack([np.minimum(lo[:-1], lo[1:]), np.maximum(hi[:-1], hi[1:])], axis=1)
-
-
-def empty_holes(product: Product, part: str, present: frozenset[str] | set[str]) -> frozenset[str]:
-    """Hole features of ``part`` that nothing enters during a step.
-
-    ``present`` holds the parts at their assembled poses in the step (the placed ones and the
-    held one). A hole is empty when ``part`` is not present (it waits at its start pose), or
-    when every mate of the hole has its pin part absent (the pin arrives in a later step). A
-    hole no mate names is never called empty (something undeclared may pass through it).
-    """
-    mates_of: dict[str, list[str]] = {}
-    for m in product.mates:
-        if m.hole_part == part:
-            mates_of.setdefault(m.hole_feature, []).append(m.pin_part)
-    return frozenset(f for f, pins in mates_of.items()
-                     if part not in present or all(p not in present for p in pins))
-
-
-_FILLED: weakref.WeakKeyDictionary[Any, dict[tuple[str, frozenset[str]], CollisionModel]] = (
-    weakref.WeakKeyDictionary())
-
-
-def filled_model(geometry: Any, part: str, filled: frozenset[str]) -> CollisionModel | None:
-    """``part``'s convex model with the holes ``filled`` left solid (cached per geometry).
-
-    None when nothing changes (no such hole cut in the part, or a mesh-file part, whose
-    sectors come from its declared holes as a whole). The other holes keep their convex
-    decomposition; a body left without holes becomes its exact primitive.
-    """
-    shape = geometry.shape(part)
-    if shape.is_mesh or not any(h.feature in filled for h in shape.holes):
-        return None
-    cache = _FILLED.setdefault(geometry, {})
-    key = (part, filled)
-    if key not in cache:
-        kept = tuple(h for h in shape.holes if h.feature not in filled)
-        probe = PartShape(shape.part, shape.bodies, kept, shape.pins, shape.is_mesh)
-        sides = {k: v for k, v in geometry.hole_sides(part).items() if k not in filled}
-        pieces, notes = convex_pieces(probe, sides, geometry.settings)
-        done = sorted(h.feature for h in shape.holes if h.feature in filled)
-        cache[key] = CollisionModel("convex", pieces, notes=(
-            *notes, f"hole(s) {', '.join(done)} left solid: empty during this step"))
-    return cache[key]
-
-
-def physics_model(geometry: Any, part: str, level: LevelOfDetail, needs_features: bool,
-                  filled: frozenset[str] = frozenset()) -> tuple[CollisionModel, str]:
-    """The collision model PyBullet can use for ``part`` at the requested ``level``.
-
-    ``filled``: holes that stay empty during the step (:func:`empty_holes`); where the level
-    keeps holes they are modelled solid, which saves their ring of pieces and the contacts
-    on it. Returns the model and a note on any change of level (see the module docstring).
-    """
-    note = ""
-    reduced = filled_model(geometry, part, filled) if filled else None
-    if reduced is not None:
-        note = f"{len(filled)} hole(s) that stay empty modelled solid"
-    if level == "coarse" and needs_features:
-        coarse = geometry.collision_model(part, "coarse", measured=False)
-        convex = reduced or geometry.collision_model(part, "convex", measured=False)
-        if len(convex.pieces) > 1:
-            return convex, "; ".join(x for x in (
-                "convex (coarse would fill its holes and bridge its pins, and it is in contact)",
-                note) if x)
-        return coarse, ""
-    if level == "exact":
-        exact = geometry.collision_model(part, "exact")
-        if exact.mesh_faces is not None or not exact.pieces:
-            if reduced is not None and all(pc.kind != "hull" for pc in reduced.pieces):
-                return reduced, note + " (every hole solid: the exact primitives)"
-            return reduced or geometry.collision_model(part, "convex", measured=False), "; ".join(
-                x for x in (
-                    "convex (its exact model is a triangle mesh, which PyBullet cannot use for "
-                    "every body; convex pieces keep the holes as exact polygons)", note) if x)
-        return exact, ""
-    if level == "coarse":
-        return geometry.collision_model(part, level, measured=False), ""
-    return reduced or geometry.collision_model(part, level, measured=False), note
-
-
-# ---------------------------------------------------------------------------------------------
-# Tray nest
-# ---------------------------------------------------------------------------------------------
-def _rect_minus(rect: np.ndarray, holes: list[np.ndarray]) -> list[np.ndarray]:
-    """Cover rectangle ``rect`` (2, 2: min, max of x, y) minus the rectangles ``holes`` with
-    a few disjoint rectangles (grid cells merged along rows, then equal strips across rows)."""
-    xs = {rect[0, 0], rect[1, 0]}
-    ys = {rect[0, 1], rect[1, 1]}
-    clipped = []
-    for h in holes:
-        lo = np.maximum(h[0], rect[0])
-        hi = np.minimum(h[1], rect[1])
-        if np.all(hi > lo):
-            clipped.append(np.stack([lo, hi]))
-            xs.update((lo[0], hi[0]))
-            ys.update((lo[1], hi[1]))
-    xv, yv = sorted(xs), sorted(ys)
-    strips: list[list[tuple[float, float]]] = []
-    for j in range(len(yv) - 1):
-        cy = 0.5 * (yv[j] + yv[j + 1])
-        row: list[tuple[float, float]] = []
-        for i in range(len(xv) - 1):
-            cx = 0.5 * (xv[i] + xv[i + 1])
-            free = not any(h[0, 0] < cx < h[1, 0] and h[0, 1] < cy < h[1, 1] for h in clipped)
-            if free:
-                if row and row[-1][1] == xv[i]:
-                    row[-1] = (row[-1][0], xv[i + 1])
-                else:
-                    row.append((xv[i], xv[i + 1]))
-        strips.append(row)
-    out: list[np.ndarray] = []
-    open_: dict[tuple[float, float], float] = {}
-    for j, row in enumerate([*strips, []]):
-        current = set(row)
-        for seg in list(open_):
-            if seg not in current:
-                y0 = open_.pop(seg)
-                out.append(np.array([[seg[0], y0], [seg[1], yv[j]]]))
-        for seg in row:
-            if seg not in open_:
-                open_[seg] = yv[j]
-    return [r for r in out if np.all(r[1] - r[0] > 1e-9)]
-
-
-def tray_nest(geometry: Any, part: str, T_world_part: np.ndarray, pieces: tuple[ConvexPiece, ...],
-              settings: SceneSettings) -> tuple[tuple[ConvexPiece, ...], np.ndarray, str] | None:
-    """Static support under the part's largest downward face, or None when the part rests on
-    the table with that face (or has no horizontal downward face).
-
-    Returns (box pieces in the nest frame, T_world_nest (4, 4), description).
-    """
-    mesh = geometry.mesh(part)
-    v = _transform(np.asarray(mesh.vertices, float), T_world_part)
-    faces = np.asarray(mesh.faces)
-    tri = v[faces]
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    area2 = np.linalg.norm(n, axis=1)
-    ok = area2 > 0
-    nz = np.zeros(len(faces))
-    nz[ok] = n[ok, 2] / area2[ok]
-    down = ok & (nz < -1.0 + 1e-9)
-    if not down.any():
-        return None
-    z = tri[down, :, 2].mean(axis=1)
-    key = np.round(z / 1e-6).astype(np.int64)
-    areas = 0.5 * area2[down]
-    uniq = np.unique(key)
-    totals = np.array([areas[key == u].sum() for u in uniq])
-    best = uniq[int(np.argmax(totals))]
-    sel = np.flatnonzero(down)[key == best]
-    z_face = float(tri[sel, :, 2].mean())
-    if z_face < settings.nest_min_height_m:
-        return None
-    # nest frame: world z, x along the part's horizontal axis closest to world x (yaw only)
-    R = T_world_part[:3, :3]
-    horiz = [c for c in range(3) if abs(R[2, c]) < 0.5]
-    ax = R[:, horiz[0]].copy()
-    ax[2] = 0.0
-    ax /= np.linalg.norm(ax)
-    T_nest = np.eye(4)
-    T_nest[:3, 0] = ax
-    T_nest[:3, 1] = np.cross([0.0, 0.0, 1.0], ax)
-    T_nest[:3, 2] = [0.0, 0.0, 1.0]
-    to_nest = invert(T_nest)
-    face_pts = _transform(tri[sel].reshape(-1, 3), to_nest)
-    rect = _aabb(face_pts[:, :2])
-    rect = rect + np.array([[1.0, 1.0], [-1.0, -1.0]]) * settings.nest_inset_m
-    if np.any(rect[1] <= rect[0]):
-        return None
-    pockets = []
-    for pc in pieces:
-        pts = _transform(_transform(piece_corners(pc), T_world_part), to_nest)
-        if pts[:, 2].min() < z_face - 1e-6:
-            box = _aabb(pts[:, :2])
-            pockets.append(box + np.array([[-1.0, -1.0], [1.0, 1.0]]) * settings.nest_clearance_m)
-    cells = _rect_minus(rect, pockets)
-    if not cells:
-        return None
-    out = []
-    for k, c in enumerate(cells):
-        T = np.eye(4)
-        T[:2, 3] = 0.5 * (c[0] + c[1])
-        T[2, 3] = z_face / 2
-        he = np.array([(c[1, 0] - c[0, 0]) / 2, (c[1, 1] - c[0, 1]) / 2, z_face / 2])
-        out.append(ConvexPiece("box", T, half_extents_m=he, name=f"nest{k}"))
-    desc = (f"tray nest: {len(out)} boxes under its largest downward face at "
-            f"z = {z_face * 1e3:.2f} mm, pockets around {len(pockets)} protruding pieces")
-    return tuple(out), T_nest, desc
-
-
-# ---------------------------------------------------------------------------------------------
 # Selection
 # ---------------------------------------------------------------------------------------------
-def part_poses(plan: Plan, index: int) -> tuple[dict[str, np.ndarray], frozenset[str]]:
-    """Pose of every part while step ``index`` runs, and the set of parts in place.
-
-    Parts in place: fixtured ones (kind "fixture", in place from the start) and those of the
-    earlier steps, at their final (assembled) poses; the others at their start poses.
-    """
-    placed = {s.part for s in plan.steps[:index]} | {s.part for s in plan.steps
-                                                     if s.kind == "fixture"}
-    placed.discard(plan.steps[index].part)
-    poses = {s.part: (s.T_world_final if s.part in placed else s.T_world_start)
-             for s in plan.steps}
-    return poses, frozenset(placed)
-
-
 def check_plan_product(plan: Plan, product: Product) -> None:
     """Raise :class:`PlanProductMismatchError` when ``plan`` was not made for ``product``."""
     if plan.product != product.name:
@@ -609,14 +348,14 @@ def check_plan_product(plan: Plan, product: Product) -> None:
             f"{sorted(product.part_names)}")
 
 
-def _mass_body(geometry: Any, product: Product, name: str) -> dict[str, Any]:
+def _mass_body(geometry: ProductGeometry, product: Product, name: str) -> dict[str, Any]:
     mp = geometry.mass_properties(name)
     return {"mass_kg": float(mp.mass_kg), "com_m": np.asarray(mp.com_m, float),
             "inertia_kgm2": np.asarray(mp.inertia_kgm2, float),
             "friction": float(product.part(name).friction)}
 
 
-def select_scene(plan: Plan, index: int, product: Product, geometry: Any, fidelity: Fidelity,
+def select_scene(plan: Plan, index: int, product: Product, geometry: ProductGeometry, fidelity: Fidelity,
                  settings: SceneSettings | None = None, *, cull: bool = True) -> StepScene:
     """The bodies step ``index`` of ``plan`` needs (see the module docstring).
 
@@ -639,203 +378,251 @@ def select_scene(plan: Plan, index: int, product: Product, geometry: Any, fideli
     StepScene
     """
     check_plan_product(plan, product)
-    return step_scene(plan.steps[index], part_poses(plan, index), product, geometry, fidelity,
+    return step_scene(plan.steps[index], assembly_state(plan, index), product, geometry, fidelity,
                       settings, cull=cull)
 
 
-Layout = tuple[dict[str, np.ndarray], frozenset[str]]
-"""Pose (4, 4) of every part while a step runs and the set of parts in place
-(:func:`part_poses`)."""
+def step_scene(step: Step, state: AssemblyState, product: Product, geometry: ProductGeometry,
+               fidelity: Fidelity, settings: SceneSettings | None = None, *, cull: bool = True) -> StepScene:
+    """:func:`select_scene` for one ``step`` given where every part is (``state``).
 
-
-def step_scene(step: Step, layout: Layout, product: Product, geometry: Any, fidelity: Fidelity,
-               settings: SceneSettings | None = None, *, cull: bool = True) -> StepScene:
-    """:func:`select_scene` for one ``step`` given where every part is (``layout``)."""
-    s = settings or SceneSettings()
+    The selection goes in stages (:class:`_Selection`): the table, the held part (and its
+    nest), the parts it mates with or touches when seated, the contact breaking distance, the
+    supports of dynamic partners, and the obstacles near the swept space.
+    """
     index = step.index
     if step.kind == "fixture" or step.trajectory is None or step.grasp is None:
         raise ValueError(f"step {index} ({step.part}): expected a step that moves its part, "
                          f"found kind {step.kind!r}")
-    held = step.part
-    poses, placed = layout
-    missing = set(product.part_names) - set(poses)
+    missing = set(product.part_names) - set(state.T_world_part)
     if missing:
-        raise ValueError(f"layout: expected a pose for every part, found none for "
+        raise ValueError(f"state: expected a pose for every part, found none for "
                          f"{sorted(missing)}")
-    level = fidelity.geometry_lod
-    notes: list[str] = []
-    bodies: list[SceneBody] = []
+    sel = _Selection(step, state, product, geometry, fidelity, settings or SceneSettings())
+    bodies = [sel.table_body()]
+    nest, held_body = sel.held_bodies()
+    bodies += nest
+    partners = sel.partners()
+    breaking, breaking_partners = sel.contact_breaking(partners)
+    supports = sel.supports(partners)
+    obstacles, left_out = sel.obstacles({step.part, *partners, *supports}, cull)
+    ordered = [*bodies, held_body]
+    ordered += [partners[n] for n in sorted(partners)]
+    ordered += [supports[n] for n in sorted(supports)]
+    ordered += obstacles
+    return StepScene(index, step.part, tuple(ordered), tuple(left_out), tuple(sel.notes),
+                     culled=cull, contact_breaking_m=breaking,
+                     contact_breaking_partners=breaking_partners)
 
-    # table
-    table = product.resources.table
-    tm = table_model(table)
-    bodies.append(SceneBody("table", "table", False, "box", np.eye(4), tm.pieces,
-                            "work table (top face z = 0), static", friction=float(table.friction)))
 
-    # held part (+ nest)
-    present = frozenset(placed) | {held}
-    dynamic_partners = (fidelity.dynamic_partners if s.dynamic_partners is None
-                        else s.dynamic_partners)
+class _Selection:
+    """The stages of :func:`step_scene` over one step's inputs; ``notes`` collects what the
+    scene summary says besides the bodies."""
 
-    def model_of(name: str, want: LevelOfDetail, needs: bool) -> tuple[CollisionModel, str]:
-        return physics_model(geometry, name, want, needs, empty_holes(product, name, present))
+    def __init__(self, step: Step, state: AssemblyState, product: Product,
+                 geometry: ProductGeometry, fidelity: Fidelity, s: SceneSettings) -> None:
+        self.step, self.product, self.geometry, self.fidelity, self.s = (
+            step, product, geometry, fidelity, s)
+        self.held = step.part
+        self.poses, self.placed = state.T_world_part, state.placed
+        self.level = fidelity.geometry_lod
+        self.notes: list[str] = []
+        self.table = product.resources.table
+        self.present = frozenset(self.placed) | {self.held}
+        self.dynamic_partners = (fidelity.dynamic_partners if s.dynamic_partners is None
+                                 else s.dynamic_partners)
+        # mates of the held part with parts in place
+        self.mate_partners: dict[str, list[str]] = {}
+        self.fits = []
+        for m in product.mates:
+            other = (m.hole_part if m.pin_part == self.held
+                     else m.pin_part if m.hole_part == self.held else None)
+            if other is not None and other in self.placed:
+                self.mate_partners.setdefault(other, []).append(m.name)
+                self.fits.append(m)
+        self._world: CollisionWorld | None = None
 
-    held_model, note = model_of(held, level, True)
-    held_reason = f"held part, dynamic, at its start pose; level {held_model.level}"
-    if note:
-        held_reason += f": {note}"
-    nest = tray_nest(geometry, held, step.T_world_start, held_model.pieces, s)
-    if nest is not None:
-        pieces, T_nest, desc = nest
-        bodies.append(SceneBody(f"nest:{held}", "nest", False, "box", T_nest, pieces,
-                                f"{desc}, static (the part does not rest on the table)",
-                                friction=float(table.friction)))
-    held_body = SceneBody(held, "held", True, held_model.level, step.T_world_start,
-                          held_model.pieces, held_reason, **_mass_body(geometry, product, held))
+    def model_of(self, name: str, want: LevelOfDetail, needs: bool) -> tuple[CollisionModel, str]:
+        return physics_model(self.geometry, name, want, needs,
+                             empty_holes(self.product, name, self.present))
 
-    # mates and touching parts at the seated pose
-    mate_partners: dict[str, list[str]] = {}
-    fits = []  # the held part's mates with parts in place
-    for m in product.mates:
-        other = m.hole_part if m.pin_part == held else m.pin_part if m.hole_part == held else None
-        if other is not None and other in placed:
-            mate_partners.setdefault(other, []).append(m.name)
-            fits.append(m)
-    world = CollisionWorld(geometry.fcl_shapes)
-    for name in [held, *sorted(placed)]:
-        world.add(name, geometry.collision_model(name, "convex", measured=False),
-                  step.T_world_final if name == held else poses[name])
+    def table_body(self) -> SceneBody:
+        tm = table_model(self.table)
+        return SceneBody("table", "table", False, "box", np.eye(4), tm.pieces,
+                         "work table (top face z = 0), static", friction=float(self.table.friction))
 
-    def touching(a: str, candidates: list[str]) -> list[tuple[str, float]]:
+    def held_bodies(self) -> tuple[list[SceneBody], SceneBody]:
+        """The held part's nest (when it does not rest on the table) and the held part."""
+        held, step = self.held, self.step
+        held_model, note = self.model_of(held, self.level, True)
+        held_reason = f"held part, dynamic, at its start pose; level {held_model.level}"
+        if note:
+            held_reason += f": {note}"
+        bodies = []
+        nest = tray_nest(self.geometry, held, step.T_world_start, held_model.pieces, self.s)
+        if nest is not None:
+            pieces, T_nest, desc = nest
+            bodies.append(SceneBody(f"nest:{held}", "nest", False, "box", T_nest, pieces,
+                                    f"{desc}, static (the part does not rest on the table)",
+                                    friction=float(self.table.friction)))
+        held_body = SceneBody(held, "held", True, held_model.level, step.T_world_start,
+                              held_model.pieces, held_reason,
+                              **_mass_body(self.geometry, self.product, held))
+        return bodies, held_body
+
+    def touching(self, a: str, candidates: list[str]) -> list[tuple[str, float]]:
+        """The candidates within the touch tolerance of ``a`` (the held part seated, the
+        others in place), with their distances, m."""
+        if self._world is None:
+            world = CollisionWorld(self.geometry.fcl_shapes)
+            for name in [self.held, *sorted(self.placed)]:
+                world.add(name, self.geometry.collision_model(name, "convex", measured=False),
+                          self.step.T_world_final if name == self.held else self.poses[name])
+            self._world = world
+        world, tol = self._world, self.s.touch_tolerance_m
         out = []
         box_a = world.aabb(a)
         for b in candidates:
             if b == a:
                 continue
-            if box_distance_m(box_a, world.aabb(b)[None])[0] > s.touch_tolerance_m:
+            if box_distance_m(box_a, world.aabb(b)[None])[0] > tol:
                 continue
             d = world.distance(a, b)
-            if d <= s.touch_tolerance_m:
+            if d <= tol:
                 out.append((b, d))
         return out
 
-    partners: dict[str, SceneBody] = {}
-    for other, dist in touching(held, sorted(placed)):
-        fixt = product.is_fixtured(other)
-        dyn = dynamic_partners and not fixt
-        model, note = model_of(other, level, True)
-        role = "mate" if other in mate_partners else "touching"
-        why = (f"mates with {held} ({', '.join(mate_partners[other])})" if role == "mate"
-               else f"touches {held} when seated (distance {dist * 1e6:.1f} um)")
-        dyn_why = ("static: fixtured" if fixt else
-                   "dynamic, so the insertion pushes a real body" if dyn else
-                   "static (dynamic partners off at this fidelity)")
-        reason = f"{why}; in place; {dyn_why}; level {model.level}" + (f": {note}" if note else "")
-        kw = _mass_body(geometry, product, other) if dyn else {
-            "friction": float(product.part(other).friction)}
-        partners[other] = SceneBody(other, role, dyn, model.level, poses[other], model.pieces,
-                                    reason, **kw)
-    for other in sorted(set(mate_partners) - set(partners)):
-        notes.append(f"{other} mates with {held} but does not touch it when seated "
-                     f"(distance > {s.touch_tolerance_m * 1e3:.2f} mm); treated as an obstacle")
-
-    # contact breaking distance: below the radial gap of fits the preset resolves, when a
-    # fit partner is dynamic (a phantom contact can push it)
-    movable = sorted(o for o in mate_partners if o in partners and partners[o].dynamic)
-    breaking: float | None = None
-    breaking_partners: tuple[str, ...] = ()
-    if s.limit_contact_breaking and movable:
-        tightest = min(fits, key=lambda m: m.clearance_min_m)
-        c = float(tightest.clearance_min_m)
-        if c >= fidelity.min_resolvable_clearance_m:
-            breaking = 0.5 * c
-            breaking_partners = tuple(movable)
-            notes.append(
-                f"contact points between {held} and {', '.join(breaking_partners)} "
-                f"(dynamic) are kept up to {breaking * 1e3:.3f} mm apart, half the smallest "
-                f"diametral clearance of the fits ({tightest.name}: {c * 1e3:.3f} mm, resolved "
-                f"at {fidelity.name}); at PyBullet's default distance (0.02 of a body's "
-                "bounding radius) a contact found at a chamfer is carried across the fit's gap "
-                "and can push the partner")
-
-    # supports of the dynamic partners
-    supports: dict[str, SceneBody] = {}
-    for name in sorted(partners):
-        if not partners[name].dynamic:
-            continue
-        for other, _ in touching(name, sorted(placed - set(partners))):
-            if other in supports:
-                continue
-            model, note = model_of(other, level, True)
-            reason = (f"supports {name} (touches it), in place, static; level {model.level}"
-                      + (f": {note}" if note else ""))
-            if product.is_fixtured(other):
-                reason += "; fixtured"
-            supports[other] = SceneBody(other, "support", False, model.level, poses[other],
-                                        model.pieces, reason,
-                                        friction=float(product.part(other).friction))
-
-    # obstacles near the swept space
-    required = {held, *partners, *supports}
-    g = product.gripper_for(step.part)
-    open_half = 0.5 * max(step.grasp.open_width_m, step.grasp.width_m)
-    grip_pts = np.concatenate([piece_corners(pc) for pc in gripper_model(g, open_half).pieces])
-    # the hull's vertices bound the same boxes as all the mesh's vertices, with fewer points
-    held_pts = np.asarray(geometry.mesh(held).convex_hull.vertices, float)
-    sweep = swept_boxes(step, held_pts, grip_pts)
-    obstacles: list[SceneBody] = []
-    left_out: list[tuple[str, str]] = []
-    for other in product.part_names:
-        if other in required:
-            continue
-        pts = _transform(np.asarray(geometry.mesh(other).vertices, float), poses[other])
-        d = float(box_distance_m(_aabb(pts), sweep).min())
-        where = "in place" if other in placed else "at its start pose"
-        if cull and d > s.include_margin_m:
-            left_out.append((other, f"{where}, {d * 1e3:.1f} mm from the space the part and "
-                                    f"gripper sweep (> {s.include_margin_m * 1e3:.0f} mm)"))
-            continue
-        if not cull:
-            # the naive whole product: every part as the simulator would model it if it
-            # selected nothing (dynamic unless fixtured, with its features, on a nest when
-            # waiting at a start pose it cannot rest on the table at)
-            # (placed parts static when the fidelity makes partners static)
+    def partners(self) -> dict[str, SceneBody]:
+        """The parts in place that the held part mates with or touches when seated."""
+        held, product = self.held, self.product
+        partners: dict[str, SceneBody] = {}
+        for other, dist in self.touching(held, sorted(self.placed)):
             fixt = product.is_fixtured(other)
-            dyn = not fixt and (dynamic_partners or other not in placed)
-            model, note = model_of(other, level, True)
-            how = ("static: fixtured" if fixt else "dynamic" if dyn
-                   else "static (dynamic partners off at this fidelity)")
-            reason = (f"obstacle {where}, {d * 1e3:.1f} mm from the swept space (whole "
-                      f"product loaded: cull off), {how}; "
-                      f"level {model.level}" + (f": {note}" if note else ""))
-            kw = (_mass_body(geometry, product, other) if dyn
-                  else {"friction": float(product.part(other).friction)})
-            obstacles.append(SceneBody(other, "obstacle", dyn, model.level, poses[other],
-                                       model.pieces, reason, distance_m=d, **kw))
-            other_nest = (None if fixt or other in placed else
-                          tray_nest(geometry, other, poses[other], model.pieces, s))
-            if other_nest is not None:
-                pieces, T_nest, desc = other_nest
-                obstacles.append(SceneBody(f"nest:{other}", "nest", False, "box", T_nest, pieces,
-                                           f"{desc}, static (whole product loaded)",
-                                           friction=float(table.friction)))
-            continue
-        near = d <= s.near_margin_m
-        want: LevelOfDetail = level if near else "coarse"
-        model, note = model_of(other, want, False)
-        reason = (f"obstacle {where}, {d * 1e3:.1f} mm from the swept space "
-                  + f"({'<=' if near else '>'} {s.near_margin_m * 1e3:.0f} mm)"
-                  + f", static; level {model.level}" + (f": {note}" if note else ""))
-        obstacles.append(SceneBody(other, "obstacle", False, model.level, poses[other],
-                                   model.pieces, reason, friction=float(product.part(other).friction),
-                                   distance_m=d))
+            dyn = self.dynamic_partners and not fixt
+            model, note = self.model_of(other, self.level, True)
+            role = "mate" if other in self.mate_partners else "touching"
+            why = (f"mates with {held} ({', '.join(self.mate_partners[other])})" if role == "mate"
+                   else f"touches {held} when seated (distance {dist * 1e6:.1f} um)")
+            dyn_why = ("static: fixtured" if fixt else
+                       "dynamic, so the insertion pushes a real body" if dyn else
+                       "static (dynamic partners off at this fidelity)")
+            reason = (f"{why}; in place; {dyn_why}; level {model.level}"
+                      + (f": {note}" if note else ""))
+            kw = _mass_body(self.geometry, product, other) if dyn else {
+                "friction": float(product.part(other).friction)}
+            partners[other] = SceneBody(other, role, dyn, model.level, self.poses[other],
+                                        model.pieces, reason, **kw)
+        for other in sorted(set(self.mate_partners) - set(partners)):
+            self.notes.append(f"{other} mates with {held} but does not touch it when seated "
+                              f"(distance > {self.s.touch_tolerance_m * 1e3:.2f} mm); treated "
+                              "as an obstacle")
+        return partners
 
-    ordered = [*bodies, held_body]
-    ordered += [partners[n] for n in sorted(partners)]
-    ordered += [supports[n] for n in sorted(supports)]
-    ordered += obstacles
-    return StepScene(index, held, tuple(ordered), tuple(left_out), tuple(notes), culled=cull,
-                     contact_breaking_m=breaking, contact_breaking_partners=breaking_partners)
+    def contact_breaking(self, partners: dict[str, SceneBody]
+                         ) -> tuple[float | None, tuple[str, ...]]:
+        """The contact breaking distance: below the radial gap of fits the preset resolves,
+        when a fit partner is dynamic (a phantom contact can push it)."""
+        movable = sorted(o for o in self.mate_partners if o in partners and partners[o].dynamic)
+        if not (self.s.limit_contact_breaking and movable):
+            return None, ()
+        tightest = min(self.fits, key=lambda m: m.clearance_min_m)
+        c = float(tightest.clearance_min_m)
+        if c < self.fidelity.min_resolvable_clearance_m:
+            return None, ()
+        breaking = 0.5 * c
+        self.notes.append(
+            f"contact points between {self.held} and {', '.join(movable)} "
+            f"(dynamic) are kept up to {breaking * 1e3:.3f} mm apart, half the smallest "
+            f"diametral clearance of the fits ({tightest.name}: {c * 1e3:.3f} mm, resolved "
+            f"at {self.fidelity.name}); at PyBullet's default distance (0.02 of a body's "
+            "bounding radius) a contact found at a chamfer is carried across the fit's gap "
+            "and can push the partner")
+        return breaking, tuple(movable)
+
+    def supports(self, partners: dict[str, SceneBody]) -> dict[str, SceneBody]:
+        """The parts in place that touch a dynamic partner (static)."""
+        supports: dict[str, SceneBody] = {}
+        for name in sorted(partners):
+            if not partners[name].dynamic:
+                continue
+            for other, _ in self.touching(name, sorted(self.placed - set(partners))):
+                if other in supports:
+                    continue
+                model, note = self.model_of(other, self.level, True)
+                reason = (f"supports {name} (touches it), in place, static; level {model.level}"
+                          + (f": {note}" if note else ""))
+                if self.product.is_fixtured(other):
+                    reason += "; fixtured"
+                supports[other] = SceneBody(other, "support", False, model.level,
+                                            self.poses[other], model.pieces, reason,
+                                            friction=float(self.product.part(other).friction))
+        return supports
+
+    def obstacles(self, required: set[str], cull: bool
+                  ) -> tuple[list[SceneBody], list[tuple[str, str]]]:
+        """The other parts near the space the part and the gripper sweep (all of them when
+        ``cull`` is off), and those left out with why."""
+        step, product, geometry, s = self.step, self.product, self.geometry, self.s
+        assert step.grasp is not None  # checked by step_scene
+        g = product.gripper_for(step.part)
+        open_half = 0.5 * max(step.grasp.open_width_m, step.grasp.width_m)
+        grip_pts = np.concatenate([piece_corners(pc) for pc in gripper_model(g, open_half).pieces])
+        # the hull's vertices bound the same boxes as all the mesh's vertices, with fewer points
+        held_pts = np.asarray(geometry.mesh(self.held).convex_hull.vertices, float)
+        sweep = swept_boxes(step, held_pts, grip_pts)
+        obstacles: list[SceneBody] = []
+        left_out: list[tuple[str, str]] = []
+        for other in product.part_names:
+            if other in required:
+                continue
+            pts = transform_points(np.asarray(geometry.mesh(other).vertices, float), self.poses[other])
+            d = float(box_distance_m(aabb(pts), sweep).min())
+            where = "in place" if other in self.placed else "at its start pose"
+            if cull and d > s.include_margin_m:
+                left_out.append((other, f"{where}, {d * 1e3:.1f} mm from the space the part and "
+                                        f"gripper sweep (> {s.include_margin_m * 1e3:.0f} mm)"))
+                continue
+            if not cull:
+                obstacles += self.whole_product_body(other, where, d)
+                continue
+            near = d <= s.near_margin_m
+            want: LevelOfDetail = self.level if near else "coarse"
+            model, note = self.model_of(other, want, False)
+            reason = (f"obstacle {where}, {d * 1e3:.1f} mm from the swept space "
+                      + f"({'<=' if near else '>'} {s.near_margin_m * 1e3:.0f} mm)"
+                      + f", static; level {model.level}" + (f": {note}" if note else ""))
+            obstacles.append(SceneBody(other, "obstacle", False, model.level, self.poses[other],
+                                       model.pieces, reason,
+                                       friction=float(product.part(other).friction),
+                                       distance_m=d))
+        return obstacles, left_out
+
+    def whole_product_body(self, other: str, where: str, d: float) -> list[SceneBody]:
+        """``other`` as the naive whole product has it (cull off): as the simulator would
+        model it if it selected nothing (dynamic unless fixtured, with its features, on a nest
+        when waiting at a start pose it cannot rest on the table at; placed parts static when
+        the fidelity makes partners static)."""
+        product, geometry = self.product, self.geometry
+        fixt = product.is_fixtured(other)
+        dyn = not fixt and (self.dynamic_partners or other not in self.placed)
+        model, note = self.model_of(other, self.level, True)
+        how = ("static: fixtured" if fixt else "dynamic" if dyn
+               else "static (dynamic partners off at this fidelity)")
+        reason = (f"obstacle {where}, {d * 1e3:.1f} mm from the swept space (whole "
+                  f"product loaded: cull off), {how}; "
+                  f"level {model.level}" + (f": {note}" if note else ""))
+        kw = (_mass_body(geometry, product, other) if dyn
+              else {"friction": float(product.part(other).friction)})
+        out = [SceneBody(other, "obstacle", dyn, model.level, self.poses[other],
+                         model.pieces, reason, distance_m=d, **kw)]
+        other_nest = (None if fixt or other in self.placed else
+                      tray_nest(geometry, other, self.poses[other], model.pieces, self.s))
+        if other_nest is not None:
+            pieces, T_nest, desc = other_nest
+            out.append(SceneBody(f"nest:{other}", "nest", False, "box", T_nest, pieces,
+                                 f"{desc}, static (whole product loaded)",
+                                 friction=float(self.table.friction)))
+        return out
 
 
 # ---------------------------------------------------------------------------------------------

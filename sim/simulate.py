@@ -33,291 +33,42 @@ carried 200 mm along that axis drifted 10 mm off the TCP
 
 from __future__ import annotations
 
-import math
 import multiprocessing
 import os
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import asdict, dataclass, field, fields, replace
-from typing import Any
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from asmplan.fileio import atomic_write_json, dumps_json
-from asmplan.knowledge.model import Product
-from asmplan.planner.plan import Plan, Step
-from asmplan.sim.bullet import BulletWorld
-from asmplan.sim.execute import execute_step, failed_outcome, scene_warnings
-from asmplan.sim.fidelity import BALANCED, PRESETS, Fidelity
-from asmplan.sim.gripper import CoupledGripper
-from asmplan.sim.records import StepOutcome, StepRecord, SuccessCriteria
-from asmplan.sim.scene import (
-    Layout,
+from ..knowledge.model import Product
+from ..planner.plan import AssemblyState, Plan, Step, assembly_state
+from .bullet import BulletWorld
+from .execute import execute_step, failed_outcome, scene_warnings
+from .fidelity import BALANCED, PRESETS, Fidelity
+from .gripper import CoupledGripper
+from .records import SuccessCriteria
+from .results import (
+    PlanResults,
+    StepResult,
+    criteria_for,
+    criteria_table,
+)
+from .scene import (
     SceneSettings,
     StepScene,
     build_scene,
     check_plan_product,
     gripper_spec,
-    part_poses,
     step_scene,
 )
 
-RESULTS_FORMAT = "asmplan-results"
-RESULTS_VERSION = 1
+if TYPE_CHECKING:
+    from ..parts.models import ProductGeometry
 
-
-# ---------------------------------------------------------------------------------------------
-# Results
-# ---------------------------------------------------------------------------------------------
-def _clean(v: Any) -> Any:
-    """JSON-safe copy: non-finite floats become None, tuples lists, arrays lists."""
-    if isinstance(v, float):
-        return v if math.isfinite(v) else None
-    if isinstance(v, np.ndarray):
-        return _clean(v.tolist())
-    if isinstance(v, np.generic):
-        return _clean(v.item())
-    if isinstance(v, dict):
-        return {str(k): _clean(x) for k, x in v.items()}
-    if isinstance(v, list | tuple):
-        return [_clean(x) for x in v]
-    return v
-
-
-def _nan(v: Any) -> float:
-    return math.nan if v is None else float(v)
-
-
-def criteria_for(product: Product) -> SuccessCriteria:
-    """Success criteria from the product's process knowledge (defaults for the rest)."""
-    p = product.process
-    return SuccessCriteria(position_tol_m=float(p.position_tolerance_m),
-                           max_slip_m=float(p.max_slip_m),
-                           max_insertion_force_N=float(p.max_insertion_force_N))
-
-
-def criteria_table(outcome: StepOutcome, criteria: SuccessCriteria, has_axis: bool
-                   ) -> dict[str, dict[str, Any]]:
-    """Every criterion by name: measured ``value``, ``limit`` and ``ok`` (SI units).
-
-    Names: position, angle, insertion_depth (only with a mate axis), slip, rotational_slip,
-    drop, insertion_force, penetration, nan, energy.
-    """
-    def row(value: float, limit: float) -> dict[str, Any]:
-        ok = bool(value <= limit) if math.isfinite(value) else False
-        return {"value": value, "limit": limit, "ok": ok}
-
-    out = {
-        "position": row(outcome.final_position_error_m, criteria.position_tol_m),
-        "angle": row(outcome.final_angle_error_rad, criteria.angle_tol_rad),
-        "slip": row(outcome.max_slip_m, criteria.max_slip_m),
-        "rotational_slip": row(outcome.max_slip_rad, criteria.max_slip_rad),
-        "drop": {"value": bool(outcome.dropped), "limit": False, "ok": not outcome.dropped},
-        "insertion_force": row(outcome.peak_insertion_force_N, criteria.max_insertion_force_N),
-        "penetration": row(outcome.max_penetration_m, criteria.max_penetration_m),
-        "nan": {"value": bool(outcome.nan_detected), "limit": False,
-                "ok": not outcome.nan_detected},
-        "energy": {"value": bool(outcome.energy_growth), "limit": False,
-                   "ok": not outcome.energy_growth},
-    }
-    if has_axis:
-        out["insertion_depth"] = row(outcome.final_axial_error_m, criteria.axial_tol_m)
-    return out
-
-
-def _outcome_to_dict(o: StepOutcome) -> dict[str, Any]:
-    d = o.to_dict()
-    d.pop("wall_time_s", None)  # wall-clock time is not part of the physics result
-    return d
-
-
-def _outcome_from_dict(d: dict[str, Any]) -> StepOutcome:
-    kw: dict[str, Any] = {}
-    for f in fields(StepOutcome):
-        if f.name == "wall_time_s":
-            continue
-        v = d[f.name]
-        if f.name in ("reasons", "warnings"):
-            v = tuple(v)
-        elif f.name in ("success", "dropped", "nan_detected", "energy_growth"):
-            v = bool(v)
-        else:
-            v = _nan(v)
-        kw[f.name] = v
-    return StepOutcome(**kw)
-
-
-@dataclass(frozen=True, eq=False)
-class StepResult:
-    """What simulating one step gave.
-
-    Attributes
-    ----------
-    index : int
-    part : str
-    kind : str
-        The plan step's kind; "fixture" steps are not simulated (the part is in place).
-    outcome : StepOutcome or None
-        None when not simulated.
-    record : StepRecord or None
-        Per-tick record (time, phase, commanded and measured clamp force, slip, part pose,
-        insertion depth, contact forces on the part, ...).
-    scene : dict or None
-        :meth:`StepScene.summary` of the bodies simulated and those left out, with reasons.
-    warnings : tuple of str
-        What the preset may not resolve in this step (checked before simulating).
-    criteria : dict
-        :func:`criteria_table`: every criterion with value, limit and ok.
-    wall_time_s : float
-        Wall-clock time of the step (selection, building, simulation), s. Not in the JSON.
-    timing_s : dict
-        Wall-clock time per stage ("select", "build", "simulate"), s. Not in the JSON.
-    """
-
-    index: int
-    part: str
-    kind: str
-    outcome: StepOutcome | None
-    record: StepRecord | None
-    scene: dict[str, Any] | None
-    warnings: tuple[str, ...]
-    criteria: dict[str, dict[str, Any]] = field(default_factory=dict)
-    wall_time_s: float = 0.0
-    timing_s: dict[str, float] = field(default_factory=dict)
-
-    @property
-    def simulated(self) -> bool:
-        return self.outcome is not None
-
-    @property
-    def success(self) -> bool:
-        """True when every criterion held (or the step was not simulated)."""
-        return self.outcome is None or self.outcome.success
-
-    @property
-    def failed_criteria(self) -> tuple[str, ...]:
-        """Names of the criteria that failed (see :func:`criteria_table`)."""
-        return tuple(sorted(k for k, v in self.criteria.items() if not v["ok"]))
-
-    @property
-    def reasons(self) -> tuple[str, ...]:
-        """The failed criteria with their numbers (empty on success)."""
-        return () if self.outcome is None else self.outcome.reasons
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe dict without wall-clock times."""
-        return _clean({
-            "index": self.index, "part": self.part, "kind": self.kind,
-            "simulated": self.simulated, "success": self.success,
-            "failed_criteria": list(self.failed_criteria),
-            "outcome": None if self.outcome is None else _outcome_to_dict(self.outcome),
-            "criteria": self.criteria,
-            "record": None if self.record is None else self.record.to_dict(),
-            "scene": self.scene, "warnings": list(self.warnings),
-        })
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> StepResult:
-        crit = {k: {"value": (_nan(v["value"]) if not isinstance(v["value"], bool)
-                              else v["value"]),
-                    "limit": v["limit"], "ok": bool(v["ok"])}
-                for k, v in (d.get("criteria") or {}).items()}
-        return cls(index=int(d["index"]), part=d["part"], kind=d["kind"],
-                   outcome=None if d["outcome"] is None else _outcome_from_dict(d["outcome"]),
-                   record=None if d["record"] is None else StepRecord.from_dict(d["record"]),
-                   scene=d["scene"], warnings=tuple(d["warnings"]), criteria=crit)
-
-
-@dataclass(frozen=True, eq=False)
-class PlanResults:
-    """The simulation of a whole plan.
-
-    Attributes
-    ----------
-    product : str
-    source : str
-        The product file the plan names.
-    plan_sequence : tuple of str
-    fidelity : Fidelity
-    culled : bool
-        Whether each step's scene held only the bodies it needs.
-    scene_settings : SceneSettings
-    steps : tuple of StepResult
-    warnings : tuple of str
-        Plan-wide warnings (fits the preset cannot resolve, with how to read the result).
-    """
-
-    product: str
-    source: str
-    plan_sequence: tuple[str, ...]
-    fidelity: Fidelity
-    culled: bool
-    scene_settings: SceneSettings
-    steps: tuple[StepResult, ...]
-    warnings: tuple[str, ...] = ()
-
-    @property
-    def success(self) -> bool:
-        """True when every simulated step succeeded."""
-        return all(s.success for s in self.steps)
-
-    @property
-    def failed_steps(self) -> tuple[StepResult, ...]:
-        return tuple(s for s in self.steps if not s.success)
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe dict (no wall-clock times; see :meth:`timing`)."""
-        return _clean({
-            "format": RESULTS_FORMAT, "version": RESULTS_VERSION,
-            "product": self.product, "source": self.source,
-            "sequence": list(self.plan_sequence),
-            "fidelity": asdict(self.fidelity), "culled": self.culled,
-            "scene_settings": asdict(self.scene_settings),
-            "success": self.success,
-            "failed_steps": [s.index for s in self.failed_steps],
-            "warnings": list(self.warnings),
-            "steps": [s.to_dict() for s in self.steps],
-        })
-
-    def to_json(self) -> str:
-        """Deterministic JSON text (sorted keys): bit-identical for the same plan and preset."""
-        return dumps_json(self.to_dict())
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> PlanResults:
-        if d.get("format") != RESULTS_FORMAT:
-            raise ValueError(f"results: expected format {RESULTS_FORMAT!r}, found "
-                             f"{d.get('format')!r}")
-        if d.get("version") != RESULTS_VERSION:
-            raise ValueError(f"results: expected version {RESULTS_VERSION}, found "
-                             f"{d.get('version')!r}")
-        return cls(product=d["product"], source=d["source"],
-                   plan_sequence=tuple(d["sequence"]), fidelity=Fidelity(**d["fidelity"]),
-                   culled=bool(d["culled"]), scene_settings=SceneSettings(**d["scene_settings"]),
-                   steps=tuple(StepResult.from_dict(s) for s in d["steps"]),
-                   warnings=tuple(d["warnings"]))
-
-    @classmethod
-    def from_json(cls, text: str) -> PlanResults:
-        import json
-
-        return cls.from_dict(json.loads(text))
-
-    def write(self, path: Any) -> Any:
-        """Write :meth:`to_json` atomically; returns the path."""
-        return atomic_write_json(path, self.to_dict())
-
-    def timing(self) -> dict[str, Any]:
-        """Wall-clock times (outside the determinism guarantee): per step and total, s."""
-        steps = [{"index": s.index, "part": s.part, "wall_time_s": s.wall_time_s,
-                  **{f"{k}_s": v for k, v in s.timing_s.items()},
-                  "simulated_s": (float(s.record.t_s[-1] - s.record.t_s[0])
-                                  if s.record is not None and s.record.n_ticks else 0.0)}
-                 for s in self.steps]
-        return {"fidelity": self.fidelity.name, "culled": self.culled,
-                "total_s": sum(s.wall_time_s for s in self.steps), "steps": steps}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -357,7 +108,7 @@ def clearance_warnings(product: Product, fidelity: Fidelity) -> tuple[str, ...]:
     return tuple(out)
 
 
-def step_warnings(scene: StepScene, product: Product, step: Step, geometry: Any,
+def step_warnings(scene: StepScene, product: Product, step: Step, geometry: ProductGeometry,
                   fidelity: Fidelity) -> tuple[str, ...]:
     """:func:`asmplan.sim.execute.scene_warnings` for the fits, masses and speed of a step."""
     in_scene = set(scene.parts)
@@ -381,29 +132,29 @@ def step_warnings(scene: StepScene, product: Product, step: Step, geometry: Any,
 ProgressFn = Callable[[int, int, str, str], None]
 
 
-def simulate_step(plan: Plan, index: int, product: Product, geometry: Any,
+def simulate_step(plan: Plan, index: int, product: Product, geometry: ProductGeometry,
                   fidelity: Fidelity = BALANCED, *, cull: bool = True,
                   settings: SceneSettings | None = None,
                   criteria: SuccessCriteria | None = None) -> StepResult:
     """Simulate step ``index`` of ``plan`` in a fresh world (see the module docstring)."""
     check_plan_product(plan, product)
-    return simulate_placed_step(plan.steps[index], part_poses(plan, index), product, geometry,
+    return simulate_placed_step(plan.steps[index], assembly_state(plan, index), product, geometry,
                                 fidelity, cull=cull, settings=settings, criteria=criteria)
 
 
-def simulate_placed_step(step: Step, layout: Layout, product: Product, geometry: Any,
+def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geometry: ProductGeometry,
                          fidelity: Fidelity = BALANCED, *, cull: bool = True,
                          settings: SceneSettings | None = None,
                          criteria: SuccessCriteria | None = None) -> StepResult:
-    """:func:`simulate_step` for one ``step`` given where every part is (``layout``: poses
-    and the parts in place, :func:`asmplan.sim.scene.part_poses`)."""
+    """:func:`simulate_step` for one ``step`` given where every part is (``state``:
+    poses and the parts in place, :func:`asmplan.planner.plan.assembly_state`)."""
     index = step.index
     if step.kind == "fixture" or step.trajectory is None or step.grasp is None:
         return StepResult(index, step.part, step.kind, None, None, None,
                           ("in place from the start (held by a fixture): not simulated",))
     crit = criteria or criteria_for(product)
     t0 = time.perf_counter()
-    scene = step_scene(step, layout, product, geometry, fidelity, settings, cull=cull)
+    scene = step_scene(step, state, product, geometry, fidelity, settings, cull=cull)
     warns = step_warnings(scene, product, step, geometry, fidelity)
     traj = step.trajectory
     f_max = float(np.max(traj.clamp_force_N))
@@ -436,7 +187,7 @@ class _Job:
     every step is simulated with, and the plan when the workers take steps by index."""
 
     product: Product
-    geometry: Any
+    geometry: ProductGeometry
     fidelity: Fidelity
     cull: bool
     settings: SceneSettings
@@ -448,8 +199,8 @@ class _Job:
         return simulate_step(self.plan, index, self.product, self.geometry, self.fidelity,
                              cull=self.cull, settings=self.settings, criteria=self.criteria)
 
-    def placed_step(self, step: Step, layout: Layout) -> StepResult:
-        return simulate_placed_step(step, layout, self.product, self.geometry, self.fidelity,
+    def placed_step(self, step: Step, state: AssemblyState) -> StepResult:
+        return simulate_placed_step(step, state, self.product, self.geometry, self.fidelity,
                                     cull=self.cull, settings=self.settings,
                                     criteria=self.criteria)
 
@@ -463,9 +214,9 @@ def _simulate_forked(index: int) -> StepResult:
     return _JOB.step(index)
 
 
-def _simulate_planned(step: Step, layout: Layout) -> StepResult:
+def _simulate_planned(step: Step, state: AssemblyState) -> StepResult:
     assert _JOB is not None, "simulate worker started without a job"
-    return _JOB.placed_step(step, layout)
+    return _JOB.placed_step(step, state)
 
 
 def default_workers() -> int:
@@ -554,7 +305,7 @@ def _simulate_parallel(job: _Job, todo: list[int], workers: int,
     plan = job.plan
     assert plan is not None
     moving = [k for k in todo if plan.steps[k].trajectory is not None]
-    order = sorted(moving, key=lambda k: -plan.steps[k].trajectory.duration_s)
+    order = sorted(moving, key=lambda k: -_duration_s(plan.steps[k]))
     done: dict[int, StepResult] = {}
     _JOB = job
     try:
@@ -573,7 +324,7 @@ def _simulate_parallel(job: _Job, todo: list[int], workers: int,
     return [done[k] for k in todo]
 
 
-def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
+def simulate_plan(plan: Plan, product: Product, geometry: ProductGeometry,
                   fidelity: Fidelity = BALANCED, *, cull: bool = True,
                   settings: SceneSettings | None = None,
                   criteria: SuccessCriteria | None = None,
@@ -588,8 +339,8 @@ def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
     product : Product
         The product the plan was made for (raises
         :class:`~asmplan.sim.scene.PlanProductMismatchError` otherwise).
-    geometry : ProductGeometry, optional
-        Shared geometry cache (default: a new one).
+    geometry : ProductGeometry
+        The product's shared geometry.
     fidelity : Fidelity
         Preset (:data:`~asmplan.sim.fidelity.BALANCED` by default).
     cull : bool
@@ -614,10 +365,6 @@ def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
     PlanResults
     """
     check_plan_product(plan, product)
-    if geometry is None:
-        from asmplan.parts.models import ProductGeometry
-
-        geometry = ProductGeometry(product)
     s = settings or SceneSettings()
     todo = list(range(len(plan.steps))) if steps is None else sorted(set(int(k) for k in steps))
     for k in todo:
@@ -648,7 +395,7 @@ def simulate_plan(plan: Plan, product: Product, geometry: Any | None = None,
 class PipelinedSimulation:
     """Simulate each step in a forked worker process as soon as the planner has planned it.
 
-    Pass :meth:`on_step` to :func:`asmplan.planner.motion.plan_product` (``on_step=``) and
+    Pass :meth:`on_step` to :func:`asmplan.planner.product.plan_product` (``on_step=``) and
     call :meth:`results` with the finished plan. A step's scene needs of the other steps only
     where their parts are (placed parts at their final poses, the others at their start
     poses, which the planner fixes before planning), so the worker gets the step and that
@@ -658,7 +405,7 @@ class PipelinedSimulation:
     Use as a context manager (the pool is shut down on exit).
     """
 
-    def __init__(self, product: Product, geometry: Any, fidelity: Fidelity, *, workers: int,
+    def __init__(self, product: Product, geometry: ProductGeometry, fidelity: Fidelity, *, workers: int,
                  cull: bool = True, settings: SceneSettings | None = None,
                  criteria: SuccessCriteria | None = None) -> None:
         if int(workers) < 2:
@@ -672,7 +419,7 @@ class PipelinedSimulation:
         # while the planner runs it keeps one core: at most cores - 1 steps run at once, the
         # others wait here (an abandoned order's waiting steps are dropped, never run)
         self.planning_workers = max(1, min(self.workers, default_workers() - 1))
-        self._waiting: dict[tuple[tuple[str, ...], int], tuple[Step, Layout]] = {}
+        self._waiting: dict[tuple[tuple[str, ...], int], tuple[Step, AssemblyState]] = {}
         self._order: tuple[str, ...] | None = None
         self._planned: dict[int, Step] = {}  # steps of the current order so far
 
@@ -704,7 +451,7 @@ class PipelinedSimulation:
         self._planned[step.index] = step
         if step.trajectory is None:
             return
-        # what part_poses(plan, index) gives on the finished plan: the parts of the earlier
+        # what assembly_state(plan, index) gives on the finished plan: the parts of the earlier
         # steps and the fixtured ones at their final poses, the others at their start poses
         placed = {self._planned[i].part for i in range(step.index)}
         placed |= {p for p in order if self.product.is_fixtured(p)}
@@ -717,7 +464,7 @@ class PipelinedSimulation:
             else:
                 poses[part] = (self.product.T_world_assembled(part) if part in placed
                                else start_poses[part])
-        self._waiting[(order, step.index)] = (step, (poses, frozenset(placed)))
+        self._waiting[(order, step.index)] = (step, AssemblyState(poses, frozenset(placed)))
         self._submit_waiting(self.planning_workers)
 
     def _submit_waiting(self, limit: int | None) -> None:
@@ -727,8 +474,8 @@ class PipelinedSimulation:
             if limit is not None and running >= limit:
                 return
             key = next(iter(self._waiting))
-            step, layout = self._waiting.pop(key)
-            self._futures[key] = self._ensure_pool().submit(_simulate_planned, step, layout)
+            step, state = self._waiting.pop(key)
+            self._futures[key] = self._ensure_pool().submit(_simulate_planned, step, state)
 
     def results(self, plan: Plan, progress: ProgressFn | None = None) -> PlanResults:
         """The results of every step of the finished ``plan`` (waits for the workers)."""
@@ -745,7 +492,7 @@ class PipelinedSimulation:
                     done[k] = future.result()
                 elif step.trajectory is not None:  # not reported by the planner: now
                     done[k] = self._ensure_pool().submit(
-                        _simulate_planned, step, part_poses(plan, k)).result()
+                        _simulate_planned, step, assembly_state(plan, k)).result()
                 else:
                     done[k] = job.step(k)
             except BrokenProcessPool:
@@ -768,3 +515,8 @@ class PipelinedSimulation:
             _JOB = self._job
             self._pool = _worker_pool(self.workers)
         return self._pool
+
+
+def _duration_s(step: Step) -> float:
+    """How long a moving step's trajectory lasts, s (0 for a step without one)."""
+    return 0.0 if step.trajectory is None else step.trajectory.duration_s

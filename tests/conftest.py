@@ -31,3 +31,9 @@ def example_path(name: str) -> Path:
 def examples() -> dict[str, Product]:
     """Every bundled example product, loaded once."""
     return {name: load_product(example_path(name)) for name in EXAMPLE_NAMES}
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption("--regen-golden", action="store_true",
+                     help="rewrite tests/fixtures/golden/ from this checkout's outputs "
+                          "(only when behaviour is meant to change)")

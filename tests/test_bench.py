@@ -8,9 +8,9 @@ import math
 
 import pytest
 
-from asmplan import bench as b
 from asmplan.cli import main
-from asmplan.sim.scenarios import PinHole
+from bench import suite as b
+from bench.scenarios import PinHole
 
 pytestmark = pytest.mark.slow
 

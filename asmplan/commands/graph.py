@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     product = load_product(args.product)
-    graphs = {}
+    graphs: dict[str, nx.Graph[str]] = {}
     if args.kind in ("both", "liaison"):
         graphs["liaison"] = liaison_graph(product)
     if args.kind in ("both", "precedence"):

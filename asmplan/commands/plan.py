@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
-from typing import Any, TextIO
+from typing import Any
 
 from ..fileio import check_output_file
 from ..knowledge.loader import load_product
@@ -18,6 +17,7 @@ from ..planner.errors import PlanningError
 from ..planner.ompl_backend import PLANNERS
 from ..planner.plan import PLAN_FORMAT, Plan, PlannerSettings
 from .argtypes import nonnegative_int, positive_float
+from .textout import StageProgress, format_table
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -43,28 +43,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--level", choices=("convex", "exact"), default=d.collision_level,
                    help=f"collision model level used for planning (default {d.collision_level})")
     p.set_defaults(func=run)
-
-
-class Progress:
-    """A one-line progress bar on a terminal, plain lines otherwise (both on ``stream``)."""
-
-    def __init__(self, stream: TextIO) -> None:
-        self.stream = stream
-        self.tty = bool(getattr(stream, "isatty", lambda: False)())
-        self.t0 = time.perf_counter()
-
-    def __call__(self, k: int, n: int, part: str, status: str) -> None:
-        done = k + (status == "done")
-        if self.tty:
-            width = 24
-            fill = round(width * done / n)
-            self.stream.write(f"\r[{'#' * fill}{'.' * (width - fill)}] {done}/{n} {part:<16}")
-            if done == n and status == "done":
-                self.stream.write("\n")
-        elif status == "done":
-            self.stream.write(f"planned step {k + 1}/{n}: {part} "
-                              f"({time.perf_counter() - self.t0:.2f} s)\n")
-        self.stream.flush()
 
 
 def evidence_lines(evidence: dict[str, Any]) -> list[str]:
@@ -98,19 +76,18 @@ def summary_table(plan: Plan, step_ms: list[float]) -> str:
         rows.append((str(s.index + 1), s.part, s.kind, s.grasp.source,
                      f"{s.grasp.width_m * 1e3:.1f}", f"{s.clamp.commanded_N:.2f}",
                      f"{s.trajectory.duration_s:.2f}", f"{ms:.1f}"))
-    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(head)]
-    fmt = "  ".join(f"{{:<{w}}}" for w in widths)
-    lines = [fmt.format(*head), fmt.format(*("-" * w for w in widths))]
-    lines += [fmt.format(*r) for r in rows]
-    return "\n".join(lines)
+    return format_table(head, rows)
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..planner.motion import plan_product, ranked_sequences
-    from ..planner.sequence import NoFeasibleSequenceError
+    from ..parts.models import ProductGeometry
+    from ..planner.fcl_oracle import FclOracle
+    from ..planner.product import plan_product, ranked_sequences
+    from ..planner.sequence import NoFeasibleSequenceError, plan_sequence
 
     product = load_product(args.product)
     check_output_file(args.output, json_format=PLAN_FORMAT)  # before any work
+    geometry = ProductGeometry(product)
     settings = PlannerSettings(planner=args.planner, time_budget_s=args.time_budget,
                                seed=args.seed, collision_level=args.level)
     choices = None
@@ -127,14 +104,19 @@ def run(args: argparse.Namespace) -> int:
         note = "given on the command line"
     else:
         try:
-            choices = ranked_sequences(product)
+            choices = ranked_sequences(plan_sequence(product, FclOracle(product, geometry)))
         except NoFeasibleSequenceError as exc:
             print(f"asmplan plan: no feasible sequence: {exc}", file=sys.stderr)
             return 1
-    progress = Progress(sys.stderr)
+    progress = StageProgress(sys.stderr)
+
+    def on_step(k: int, n: int, part: str, status: str) -> None:
+        if status == "done":
+            progress("plan", k + 1, n, part)
+
     try:
-        result = plan_product(product, settings, sequence=order, sequence_note=note,
-                              sequences=choices, progress=progress)
+        result = plan_product(product, geometry, settings, sequence=order, sequence_note=note,
+                              sequences=choices, progress=on_step)
     except PlanningError as exc:
         if progress.tty:
             sys.stderr.write("\n")

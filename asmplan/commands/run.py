@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, TextIO
+from typing import TYPE_CHECKING
 
 from .argtypes import add_jobs_argument
 from .plan import evidence_lines
+from .textout import StageProgress, format_table
 
 if TYPE_CHECKING:  # the pipeline (trimesh, scipy, pybullet) is imported when a run starts
     from ..pipeline import RunResult
@@ -45,28 +45,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-class StageProgress:
-    """A one-line progress bar per stage on a terminal; plain log lines otherwise."""
-
-    def __init__(self, stream: TextIO) -> None:
-        self.stream = stream
-        self.tty = bool(getattr(stream, "isatty", lambda: False)())
-        self.t0 = time.perf_counter()
-
-    def __call__(self, stage: str, done: int, total: int, label: str) -> None:
-        elapsed = time.perf_counter() - self.t0
-        if self.tty:
-            width = 24
-            fill = round(width * done / max(total, 1))
-            self.stream.write(f"\r{stage:<9} [{'#' * fill}{'.' * (width - fill)}] {done}/{total} "
-                              f"{label:<16} {elapsed:6.1f} s")
-            if done == total:
-                self.stream.write("\n")
-        elif done > 0:
-            self.stream.write(f"{stage}: {done}/{total} {label} ({elapsed:.1f} s)\n".replace("  ", " "))
-        self.stream.flush()
-
-
 def summary_table(result: RunResult) -> str:
     head = ("step", "part", "kind", "cycle s", "clamp N", "slip lim N", "insert N", "error mm", "result")
     rows: list[tuple[str, ...]] = []
@@ -82,12 +60,7 @@ def summary_table(result: RunResult) -> str:
                      f"{step.clamp.slip_limit_N:.2f}" if step.clamp else "-",
                      f"{o.peak_insertion_force_N:.2f}" if o else "-",
                      f"{o.final_position_error_m * 1e3:.3f}" if o else "-", verdict))
-    widths = [max(len(r[i]) for r in [head, *rows]) for i in range(len(head))]
-
-    def line(r: tuple[str, ...]) -> str:
-        return "  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip()
-
-    return "\n".join([line(head), line(tuple("-" * w for w in widths)), *map(line, rows)])
+    return format_table(head, rows)
 
 
 def run(args: argparse.Namespace) -> int:

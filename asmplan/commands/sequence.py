@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 import json
 import sys
+from typing import Any
 
 from ..knowledge.loader import load_product
 from ..planner.sequence import (
@@ -67,7 +68,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def settings_from_args(args: argparse.Namespace) -> SequenceSettings:
     """The :class:`SequenceSettings` the options ask for."""
-    changes: dict[str, object] = {"top_k": args.top, "beam_width": args.beam_width,
+    changes: dict[str, Any] = {"top_k": args.top, "beam_width": args.beam_width,
                                   "max_states": args.max_states}
     changes["max_beam_width"] = max(SequenceSettings().max_beam_width, args.beam_width)
     for name, value in args.weight:
@@ -116,7 +117,10 @@ def run(args: argparse.Namespace) -> int:
     product = load_product(args.product)
     settings = settings_from_args(args)
     try:
-        plan = plan_sequence(product, settings=settings)
+        from ..parts.models import ProductGeometry
+        from ..planner.fcl_oracle import FclOracle
+
+        plan = plan_sequence(product, FclOracle(product, ProductGeometry(product)), settings)
     except PrecedenceConflictError as exc:
         if args.json:
             print(json.dumps({"feasible": False, "error": exc.evidence()}, indent=2, default=str))

@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
     product = load_product(src, display_name=str(src))
     out = Path(args.output)
     timing_path = Path(args.timing) if args.timing else out.with_name(f"{out.stem}.timing.json")
-    from ..sim.simulate import RESULTS_FORMAT
+    from ..sim.results import RESULTS_FORMAT
 
     check_output_file(out, json_format=RESULTS_FORMAT)  # before any work
     check_output_file(timing_path)
@@ -102,6 +102,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"asmplan simulate: warning: {src} changed since the plan was made "
                   "(SHA-256 differs); simulating the plan against the current file",
                   file=sys.stderr)
+    from ..parts.models import ProductGeometry
     from ..sim.fidelity import preset
     from ..sim.scene import PlanProductMismatchError
     from ..sim.simulate import clearance_warnings, simulate_plan
@@ -117,8 +118,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"simulated step {k + 1}/{n}: {part}", file=sys.stderr, flush=True)
 
     try:
-        results = simulate_plan(plan, product, fidelity=fidelity, cull=not args.no_cull,
-                                progress=progress, workers=args.jobs)
+        results = simulate_plan(plan, product, ProductGeometry(product), fidelity=fidelity,
+                                cull=not args.no_cull, progress=progress, workers=args.jobs)
     except PlanProductMismatchError as exc:
         raise _plan_issue(args.plan, f"the plan does not match its product file {src}: "
                                      f"{exc}") from None

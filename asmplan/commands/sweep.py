@@ -109,6 +109,8 @@ def _capture_m(product: Any, plan: Any, k: int) -> float | None:
     return min(out) if out else None
 
 
+# Complexity above C (radon): the command's sequence (spec, plan, journal, run, summary, report,
+# printout) in one place.
 def run(args: argparse.Namespace) -> int:
     from ..sim import sweep as sw
     from ..sim.fidelity import preset
@@ -129,11 +131,12 @@ def run(args: argparse.Namespace) -> int:
                                     f"({', '.join(product.part_names)}), found one for "
                                     f"{plan.product!r} ({', '.join(plan.sequence)})")
     else:
+        from ..parts.models import ProductGeometry
         from ..planner.errors import PlanningError
-        from ..planner.motion import plan_product
+        from ..planner.product import plan_product
 
         try:
-            plan = plan_product(product).plan
+            plan = plan_product(product, ProductGeometry(product)).plan
         except PlanningError as exc:
             print(f"asmplan sweep: planning failed: {exc}", file=sys.stderr)
             return 1
@@ -199,7 +202,7 @@ def run(args: argparse.Namespace) -> int:
         "spec": spec.to_dict(), "fidelity": fidelity.name, "fingerprint": header["fingerprint"],
         "capture_m": captures, "summary": summary.to_dict(), "samples": table})
     from ..report.plots import factor_unit  # the report (jinja2, matplotlib) only here
-    from ..report.sweep import write_sweep_report
+    from ..report.sweep import error_text, failure_text, write_sweep_report
 
     write_sweep_report(out, product, summary, spec.to_dict(), fidelity.name, captures,
                        n_samples=len(samples))
@@ -216,14 +219,14 @@ def run(args: argparse.Namespace) -> int:
             scale, unit = factor_unit(e.factor)
             x50 = "" if not math.isfinite(e.x50) else f", 50 % at {e.x50 * scale:.3g} {unit}"
             print(f"  driven by {e.factor} (r = {e.correlation:+.2f}, p = {e.p_value:.2g}{x50})")
-        for reason, count in st.failure_reasons[:5]:
-            print(f"  {count:>5} x {reason}")
+        for f in st.failures[:5]:
+            print(f"  {f.count:>5} x {failure_text(f)}")
     print(f"results in {out}/ (sweep.json, sweep-report.html, sweep-<step>.png; journal "
           f"{sw.JOURNAL_NAME})")
     if summary.n_errors:
         print(f"asmplan sweep: {summary.n_errors} of {len(samples)} samples produced no "
               "verdict (left out of the rates):", file=sys.stderr)
-        for reason, count in summary.errors:
-            print(f"  {count} x {reason}", file=sys.stderr)
+        for code, count in summary.errors:
+            print(f"  {count} x {error_text(code)}", file=sys.stderr)
         return 1
     return 0

@@ -105,3 +105,18 @@ def test_explicit_clearance_and_length_units(tmp_path) -> None:
     product = load_product(path)
     mate = product.mates[0]
     assert (mate.clearance_min_m, mate.clearance_max_m) == (0.01, 0.03)
+
+
+@pytest.mark.parametrize("a", [(0, 0, 1), (1, 0, 0), (0, 1, 0), (1, 2, -3), (0, 0, -1)])
+def test_rotation_between_turns_a_onto_b_also_for_opposite_vectors(a):
+    """One rotate-a-onto-b for the whole project (frames, collision sweeps): a proper rotation
+    that maps a onto b, including b = -a, where the axis must be found another way."""
+    from asmplan.knowledge.frames import rotation_between
+
+    a = np.asarray(a, float)
+    u = a / np.linalg.norm(a)
+    for b in (-a, a, np.array([0.3, -0.4, 0.5]), np.cross(a, [1.0, 2.0, 0.5])):
+        R = rotation_between(a, b)
+        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+        assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-12)
+        np.testing.assert_allclose(R @ u, b / np.linalg.norm(b), atol=1e-12)

@@ -21,7 +21,7 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 @pytest.mark.parametrize("name", ["peg_in_hole", "pinhole_station", "gear_unit"])
 def test_examples_check_clean_with_every_clearance_in_its_fit(examples, name):
     product = examples[name]
-    result = check_assembly(product, level="exact")
+    result = check_assembly(product, ProductGeometry(product), level="exact")
     assert result.success, result.reason
     assert result.interferences == ()
     assert len(result.mates) == len(product.mates)
@@ -36,7 +36,7 @@ def test_examples_check_clean_with_every_clearance_in_its_fit(examples, name):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["pinhole_station", "gear_unit"])
 def test_examples_check_clean_at_the_convex_level(examples, name):
-    result = check_assembly(examples[name], level="convex")
+    result = check_assembly(examples[name], ProductGeometry(examples[name]), level="convex")
     assert result.success, result.reason
     for m in result.mates:
         assert abs(m.measured_m - m.built_m) <= m.bound_m
@@ -45,7 +45,8 @@ def test_examples_check_clean_at_the_convex_level(examples, name):
 
 
 def test_interfering_product_names_the_pair_and_depth():
-    result = check_assembly(load_product(FIXTURES / "interfering.yaml"))
+    interfering = load_product(FIXTURES / "interfering.yaml")
+    result = check_assembly(interfering, ProductGeometry(interfering))
     assert not result.success
     (i,) = result.interferences
     assert (i.a, i.b) == ("block", "cap")
@@ -71,7 +72,7 @@ def test_an_interference_fit_is_an_intended_overlap(make_product):
         mates:
           - {pin: pin.p, hole: hub.h, interference: 0.02}
     """)
-    result = check_assembly(p)
+    result = check_assembly(p, ProductGeometry(p))
     assert result.success, result.reason
     (c,) = result.intended_contacts
     assert (c.a, c.b, c.intended_by) == ("hub", "pin", "pin.p->hub.h")

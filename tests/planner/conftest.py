@@ -9,7 +9,7 @@ import pytest
 from asmplan.knowledge.loader import load_product
 from asmplan.knowledge.model import Product
 from asmplan.parts.models import ProductGeometry
-from asmplan.planner.motion import PartData, part_data
+from asmplan.planner.partdata import PartData, part_data
 from asmplan.planner.plan import PlannerSettings
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
@@ -28,6 +28,9 @@ class GeometryCache:
     def __init__(self) -> None:
         self.geometry: dict[str, ProductGeometry] = {}
         self.data: dict[tuple[str, str], dict[str, PartData]] = {}
+
+    def geo(self, product: Product) -> ProductGeometry:
+        return self.geometry.setdefault(product.name, ProductGeometry(product))
 
     def parts(self, product: Product, level: str = "convex") -> dict[str, PartData]:
         key = (product.name, level)

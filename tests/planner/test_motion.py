@@ -10,22 +10,19 @@ import pytest
 
 from asmplan.knowledge.frames import make_T
 from asmplan.knowledge.model import Product
+from asmplan.planner.certify import certify_path
 from asmplan.planner.errors import (
     InsertionBlockedError,
     NoGraspError,
     NoPathError,
     StartInCollisionError,
 )
-from asmplan.planner.motion import (
-    GRIPPER_CLOSED,
-    BroadPhaseValidity,
-    MotionPlanner,
-    certify_path,
-    dense_recheck,
-    insertion_spec,
-    plan_product,
-)
+from asmplan.planner.insertion import insertion_spec
+from asmplan.planner.motion import MotionPlanner
 from asmplan.planner.plan import PlannerSettings, Step
+from asmplan.planner.product import plan_product
+from asmplan.planner.recheck import dense_recheck
+from asmplan.planner.scene import GRIPPER_CLOSED, BroadPhaseValidity
 from asmplan.planner.trajectory import Trajectory
 from tests.planner.conftest import ORDERS
 
@@ -49,7 +46,7 @@ def gear_unit_standing(product: Product) -> Product:
 
 def _plan(product: Product, cache, settings: PlannerSettings | None = None):
     settings = settings or PlannerSettings()
-    return plan_product(product, settings, sequence=ORDERS.get(product.name),
+    return plan_product(product, cache.geo(product), settings, sequence=ORDERS.get(product.name),
                         parts=cache.parts(product, settings.collision_level))
 
 
@@ -105,7 +102,7 @@ def test_pinhole_median_step_time_and_determinism(examples, geometry_cache):
 
 def test_blocked_product_names_the_obstacle(blocked_product, geometry_cache):
     with pytest.raises(InsertionBlockedError, match=r'blocked by "bridge"') as err:
-        plan_product(blocked_product, PlannerSettings(), sequence=["block", "bridge", "peg"],
+        plan_product(blocked_product, geometry_cache.geo(blocked_product), PlannerSettings(), sequence=["block", "bridge", "peg"],
                      parts=geometry_cache.parts(blocked_product))
     e = err.value
     assert e.obstacle == "bridge" and e.part == "peg" and e.step == 2
@@ -129,7 +126,7 @@ def test_flat_wheel_has_no_grasp(examples, geometry_cache):
     grasp collides (table at the start, shaft or block when seated)."""
     product = with_start(gear_unit_standing(examples["gear_unit"]), "wheel", (20, 220, 5))
     with pytest.raises(NoGraspError, match=r'part "wheel"') as err:
-        plan_product(product, PlannerSettings(max_grasp_candidates=150),
+        plan_product(product, geometry_cache.geo(product), PlannerSettings(max_grasp_candidates=150),
                      sequence=ORDERS["gear_unit"][:4] + ORDERS["gear_unit"][4:],
                      parts=geometry_cache.parts(examples["gear_unit"]))
     assert any("table at the start pose" in r for r in err.value.reasons)
@@ -201,10 +198,13 @@ def test_direct_insertion_baseline_does_not_reach_the_hole_quickly(examples, geo
     with a 17 um fit it finds no path within a short budget, while the planner succeeds."""
     product = examples["peg_in_hole"]
     settings = PlannerSettings(time_budget_s=0.3, replan_attempts=0)
+    from bench.motion import DirectInsertionPlanner
+
+    baseline = DirectInsertionPlanner(product, settings, geometry_cache.parts(product))
     with pytest.raises((NoPathError, NoGraspError), match=r"no collision-free path|no feasible"):
-        plan_product(product, settings, sequence=ORDERS["peg_in_hole"],
-                     parts=geometry_cache.parts(product), direct_insertion=True)
-    assert plan_product(product, settings, sequence=ORDERS["peg_in_hole"],
+        for k, part in enumerate(ORDERS["peg_in_hole"]):
+            baseline.plan_step(k, part)
+    assert plan_product(product, geometry_cache.geo(product), settings, sequence=ORDERS["peg_in_hole"],
                         parts=geometry_cache.parts(product)).plan.steps[1].kind == "insert"
 
 
@@ -239,7 +239,7 @@ def test_missing_start_pose_gets_a_free_table_spot(examples, geometry_cache):
     parts = tuple(dataclasses.replace(p, T_world_start=np.full((4, 4), np.nan))
                   if p.name == "part4" else p for p in product.parts)
     nostart = dataclasses.replace(product, parts=parts)
-    result = plan_product(nostart, PlannerSettings(), sequence=ORDERS["pinhole_station"],
+    result = plan_product(nostart, geometry_cache.geo(product), PlannerSettings(), sequence=ORDERS["pinhole_station"],
                           parts=geometry_cache.parts(product))
     step = result.plan.step("part4")
     assert step.start_note.startswith("no start pose given: placed on the table")
@@ -261,8 +261,8 @@ def test_too_heavy_part_is_a_grip_failure_with_numbers(examples, geometry_cache)
     parts["part3"] = dataclasses.replace(parts["part3"], mass_kg=2.0)
     with pytest.raises(GripInfeasibleError, match=r"step 2 \(part \"part3\"\).*needs 52\.49 N") \
             as err:
-        plan_product(product, PlannerSettings(), sequence=ORDERS["pinhole_station"],
-                     parts=parts)
+        plan_product(product, geometry_cache.geo(product), PlannerSettings(),
+                     sequence=ORDERS["pinhole_station"], parts=parts)
     # 2 x 2.0 kg x (9.81 + 2.0) / (2 x 1.0 x 0.45) = 52.5 N > 40 N (found before any grasp is
     # tried, so without a moment term; no insertion resistance is declared)
     assert err.value.required_N == pytest.approx(2 * 2.0 * 11.81 / 0.9, rel=1e-9)

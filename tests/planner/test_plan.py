@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from asmplan.cli import main
-from asmplan.planner.motion import plan_product
 from asmplan.planner.plan import PLAN_FORMAT, Grasp, Plan, PlannerSettings, Step
+from asmplan.planner.product import plan_product
 from tests.conftest import example_path
 from tests.planner.conftest import FIXTURES, ORDERS
 
@@ -18,7 +18,7 @@ from tests.planner.conftest import FIXTURES, ORDERS
 @pytest.fixture(scope="module")
 def peg_plan(examples, geometry_cache) -> Plan:
     product = examples["peg_in_hole"]
-    return plan_product(product, PlannerSettings(), sequence=ORDERS["peg_in_hole"],
+    return plan_product(product, geometry_cache.geo(product), PlannerSettings(), sequence=ORDERS["peg_in_hole"],
                         parts=geometry_cache.parts(product)).plan
 
 
@@ -99,7 +99,7 @@ def test_cli_plan_writes_a_plan_and_a_summary(tmp_path, capsys):
     assert plan.sequence == ("block", "peg") and plan.settings.seed == 3
     assert "sequence planner" in plan.sequence_note
     assert "step  part" in captured.out and "peg" in captured.out
-    assert "planned step 2/2: peg" in captured.err  # plain progress lines when not a TTY
+    assert "plan: 2/2 peg" in captured.err  # plain progress lines when not a TTY
     # the same input and seed give the same bytes
     out2 = tmp_path / "again.json"
     assert main(["plan", str(example_path("peg_in_hole")), "-o", str(out2), "--seed", "3"]) == 0
@@ -127,7 +127,7 @@ def test_cli_bad_input_exits_2(tmp_path, capsys):
 def test_progress_bar_on_a_terminal_and_lines_otherwise():
     import io
 
-    from asmplan.commands.plan import Progress
+    from asmplan.commands.textout import StageProgress
 
     class Tty(io.StringIO):
         def isatty(self) -> bool:
@@ -135,11 +135,11 @@ def test_progress_bar_on_a_terminal_and_lines_otherwise():
 
     tty, plain = Tty(), io.StringIO()
     for stream in (tty, plain):
-        p = Progress(stream)
+        p = StageProgress(stream)
+        p("plan", 0, 2, "")
         for k, part in enumerate(("a", "b")):
-            p(k, 2, part, "start")
-            p(k, 2, part, "done")
-    assert tty.getvalue().count("\r[") == 4 and tty.getvalue().endswith("\n")
+            p("plan", k + 1, 2, part)
+    assert tty.getvalue().count("\rplan") == 3 and tty.getvalue().endswith("\n")
     assert "[########################] 2/2" in tty.getvalue()
     lines = plain.getvalue().splitlines()
-    assert len(lines) == 2 and lines[1].startswith("planned step 2/2: b (")
+    assert len(lines) == 2 and lines[1].startswith("plan: 2/2 b (")

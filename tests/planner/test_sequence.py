@@ -21,6 +21,7 @@ from asmplan.knowledge.generator import generate_product, generated_product
 from asmplan.knowledge.graphs import precedence_graph
 from asmplan.knowledge.loader import load_product
 from asmplan.knowledge.model import Product
+from asmplan.parts.models import ProductGeometry
 from asmplan.planner.blocking import BlockingTable, blocking_table, mate_insertion_direction
 from asmplan.planner.sequence import (
     COST_TERMS,
@@ -252,7 +253,7 @@ def fcl_tables(examples: dict[str, Product]) -> dict[str, BlockingTable]:
     """Blocking tables of the bundled examples, swept once with FCL."""
     from asmplan.planner.fcl_oracle import FclOracle
 
-    return {name: blocking_table(p, FclOracle(p)) for name, p in examples.items()}
+    return {name: blocking_table(p, FclOracle(p, ProductGeometry(p))) for name, p in examples.items()}
 
 
 def _removal_blockers(table: BlockingTable, part: str, removal: str) -> frozenset[str]:
@@ -367,7 +368,7 @@ def test_contradictory_rule_names_the_rule_and_the_geometry() -> None:
                     if "{before: cap, after: riser" in ln)
     product = load_product(path)
     with pytest.raises(PrecedenceConflictError) as info:
-        plan_sequence(product, FclOracle(product))
+        plan_sequence(product, FclOracle(product, ProductGeometry(product)))
     err = info.value
     message = str(err)
     assert f"contradictory_rules.yaml:{line}:" in message
@@ -387,7 +388,7 @@ def test_fifty_parts_plan_in_one_go() -> None:
     from asmplan.planner.fcl_oracle import FclOracle
 
     product = generated_product(50, seed=0)
-    plan = plan_sequence(product, FclOracle(product))
+    plan = plan_sequence(product, FclOracle(product, ProductGeometry(product)))
     assert plan.method == "beam" and plan.feasible_count is None
     assert len(plan.sequences) == SequenceSettings().top_k
     for s in plan.sequences:
@@ -408,7 +409,7 @@ def test_generated_l_cover_shields_the_side_plate() -> None:
     product = generated_product(5, seed=0)
     assert [r.after for r in product.precedence.rules] == ["c0_cover"]
     assert ("c0_side", "c0_cover") not in {(r.before, r.after) for r in product.precedence.rules}
-    plan = plan_sequence(product, FclOracle(product), SequenceSettings(top_k=10))
+    plan = plan_sequence(product, FclOracle(product, ProductGeometry(product)), SequenceSettings(top_k=10))
     assert plan.feasible_count == 1
     assert plan.best.order == ("base", "c0_block0", "c0_block1", "c0_side", "c0_cover")
     (geo,) = [o for o in plan.origins("c0_side", "c0_cover") if o["kind"] == "geometry"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from asmplan.sim.fidelity import preset
-from asmplan.sim.scenarios import run_seed_cycle
+from bench.scenarios import run_seed_cycle
 
 
 @pytest.fixture(scope="session")

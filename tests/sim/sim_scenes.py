@@ -1,5 +1,5 @@
 """What the simulator tests share besides the validation scenes (those are in
-:mod:`asmplan.sim.scenarios`, which ``asmplan bench`` measures too): the shared seed table's
+:mod:`bench.scenarios`, which ``asmplan bench`` measures too): the shared seed table's
 path and the sweep that measured each preset's resolvable clearance.
 """
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from asmplan.sim.scenarios import PinHole, entered_depth_m, pin_insertion
+from bench.scenarios import PinHole, entered_depth_m, pin_insertion
 
 SEED_CSV = (Path(__file__).parents[2] / "../shared/reference/clamp_cycle_seed.csv").resolve()
 """The seed paper's Table 4 as transcribed for the project (the scenes embed the same table)."""

@@ -11,7 +11,7 @@ from asmplan.parts.decompose import HoleSpec, block_with_holes_pieces
 from asmplan.parts.pieces import ConvexPiece
 from asmplan.sim.bullet import BulletError, BulletWorld
 from asmplan.sim.fidelity import BALANCED
-from asmplan.sim.scenarios import box_inertia, box_piece
+from bench.scenarios import box_inertia, box_piece
 
 G = 9.81
 

@@ -12,7 +12,7 @@ from asmplan.planner.trajectory import read_phase_table, seed_cycle
 from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.execute import execute_step
 from asmplan.sim.fidelity import BALANCED, FAST
-from asmplan.sim.scenarios import BoxPart, add_box_and_gripper, pin_insertion, run_seed_cycle
+from bench.scenarios import BoxPart, add_box_and_gripper, pin_insertion, run_seed_cycle
 
 
 def _assert_identical(rec_a, rec_b, out_a, out_b):

@@ -7,6 +7,7 @@ of returning a wrong "stable"/"success".
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -20,7 +21,7 @@ from asmplan.sim.execute import execute_step, scene_warnings, settle
 from asmplan.sim.fidelity import ACCURATE, BALANCED, FAST
 from asmplan.sim.gripper import Gripper, GripperSpec
 from asmplan.sim.records import SuccessCriteria
-from asmplan.sim.scenarios import (
+from bench.scenarios import (
     BoxPart,
     G,
     add_box_and_gripper,
@@ -194,7 +195,7 @@ def test_fast_pads_hold_a_light_low_friction_block_without_creep():
     force = 2.2 * part.mass_kg * G / (2 * 0.3)
     creep = {}
     for anchor in (True, False):
-        with BulletWorld(FAST.replace(friction_anchor=anchor)) as world:
+        with BulletWorld(dataclasses.replace(FAST, friction_anchor=anchor)) as world:
             body, gripper, T0 = add_box_and_gripper(world, part, clearance_m=0.001)
             record, outcome = _pick_and_hold(world, gripper, body, T0, force, 0.03, 8.0)
         held = record.phase_mask("translate")

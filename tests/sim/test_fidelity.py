@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from asmplan.sim.fidelity import ACCURATE, BALANCED, FAST, Fidelity, preset
@@ -39,19 +41,19 @@ def test_presets_follow_the_field_notes():
 
 def test_invalid_settings_are_rejected_with_expected_and_found():
     with pytest.raises(ValueError, match=r"dt_s: expected a finite value > 0, found -0.001"):
-        BALANCED.replace(dt_s=-0.001)
+        dataclasses.replace(BALANCED, dt_s=-0.001)
     with pytest.raises(ValueError, match=r"solver_iterations: expected an integer >= 1"):
-        BALANCED.replace(solver_iterations=0)
+        dataclasses.replace(BALANCED, solver_iterations=0)
     with pytest.raises(ValueError, match=r"geometry_lod: expected one of"):
-        BALANCED.replace(geometry_lod="blobby")
+        dataclasses.replace(BALANCED, geometry_lod="blobby")
     with pytest.raises(ValueError, match=r"contact_erp: expected a value in \[0, 1\]"):
-        BALANCED.replace(contact_erp=1.5)
-    with pytest.raises(ValueError, match=r"unknown fields \['dt'\]"):
-        BALANCED.replace(dt=0.1)
+        dataclasses.replace(BALANCED, contact_erp=1.5)
+    with pytest.raises(TypeError, match=r"unexpected keyword argument 'dt'"):
+        dataclasses.replace(BALANCED, dt=0.1)
 
 
 def test_replace_returns_a_new_validated_preset():
-    custom = BALANCED.replace(name="custom", dt_s=1 / 2000)
+    custom = dataclasses.replace(BALANCED, name="custom", dt_s=1 / 2000)
     assert isinstance(custom, Fidelity)
     assert custom.dt_s == 1 / 2000
     assert BALANCED.dt_s == 1 / 1000

@@ -10,7 +10,7 @@ from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.execute import execute_step
 from asmplan.sim.fidelity import BALANCED
 from asmplan.sim.gripper import FINGER_LINKS, Gripper, GripperSpec
-from asmplan.sim.scenarios import BoxPart, G, add_box_and_gripper, pose
+from bench.scenarios import BoxPart, G, add_box_and_gripper, pose
 
 
 @pytest.mark.parametrize("force_N", [1.0, 3.0, 10.0])

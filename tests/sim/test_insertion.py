@@ -1,6 +1,6 @@
 """Pin-in-hole insertion driven by the gripper (blind hole from parts/decompose.py).
 
-Scene (asmplan.sim.scenarios.PinHole): a 10 mm nominal hole, 20 mm deep, 8-sided exact
+Scene (bench.scenarios.PinHole): a 10 mm nominal hole, 20 mm deep, 8-sided exact
 decomposition, in a fixtured 40 x 40 x 30 mm block; a 40 mm steel pin picked standing from
 the table, carried over the hole and pushed straight down to 0.2 mm above the hole floor,
 released, gripper retreats. No chamfer anywhere. Success = pin seated within 0.5 mm of the
@@ -13,7 +13,7 @@ import pytest
 
 from asmplan.parts.decompose import effective_clearance_range
 from asmplan.sim.fidelity import BALANCED
-from asmplan.sim.scenarios import PinHole, entered_depth_m, pin_insertion
+from bench.scenarios import PinHole, entered_depth_m, pin_insertion
 
 
 @pytest.mark.slow

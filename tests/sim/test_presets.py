@@ -9,7 +9,7 @@ from __future__ import annotations
 import pytest
 
 from asmplan.sim.fidelity import preset
-from asmplan.sim.scenarios import BoxPart, G, entered_depth_m, lift_slip_m, pin_insertion
+from bench.scenarios import BoxPart, G, entered_depth_m, lift_slip_m, pin_insertion
 
 NAMES = ("fast", "balanced", "accurate")
 

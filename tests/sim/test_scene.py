@@ -12,22 +12,16 @@ from hypothesis import strategies as st
 
 from asmplan.knowledge.loader import load_product
 from asmplan.knowledge.model import Product
+from asmplan.parts.cell import gripper_model
 from asmplan.parts.models import ProductGeometry
-from asmplan.planner.motion import gripper_model, plan_product
 from asmplan.planner.plan import Plan
+from asmplan.planner.product import plan_product
+from asmplan.sim.bodies import piece_corners
 from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.execute import settle
 from asmplan.sim.fidelity import ACCURATE, BALANCED, FAST
-from asmplan.sim.scene import (
-    PlanProductMismatchError,
-    SceneSettings,
-    _rect_minus,
-    build_scene,
-    gripper_spec,
-    piece_corners,
-    select_scene,
-    tray_nest,
-)
+from asmplan.sim.nest import _rect_minus, tray_nest
+from asmplan.sim.scene import PlanProductMismatchError, SceneSettings, build_scene, gripper_spec, select_scene
 from tests.conftest import example_path
 
 
@@ -37,7 +31,7 @@ def plan_for(name: str) -> tuple[Plan, Product, ProductGeometry]:
     and a shared geometry cache."""
     product = load_product(example_path(name))
     geometry = ProductGeometry(product)
-    return plan_product(product).plan, product, geometry
+    return plan_product(product, geometry).plan, product, geometry
 
 
 # ---------------------------------------------------------------------------------------------
@@ -172,7 +166,7 @@ def test_levels_follow_the_fidelity_but_keep_holes_and_pins():
     plan, product, geo = plan_for("gear_unit")
     k = plan.step("wheel").index
     # FAST with dynamic partners (as BALANCED): held, mate and support need their features
-    fast = select_scene(plan, k, product, geo, FAST.replace(dynamic_partners=True))
+    fast = select_scene(plan, k, product, geo, dataclasses.replace(FAST, dynamic_partners=True))
     for name in ("wheel", "shaft", "bearing_block"):
         b = fast.body(name)
         assert b.level == "convex" and len(b.pieces) == len(
@@ -268,7 +262,7 @@ def test_simulated_gripper_matches_the_planned_one():
 
 
 def test_holes_that_stay_empty_are_modelled_solid():
-    from asmplan.sim.scene import empty_holes
+    from asmplan.sim.bodies import empty_holes
 
     plan, product, geo = plan_for("pinhole_station")
     k = plan.step("part2").index

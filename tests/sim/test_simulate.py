@@ -15,20 +15,15 @@ from test_scene import plan_for
 
 from asmplan.cli import main
 from asmplan.knowledge.model import Mate
-from asmplan.planner.plan import Plan, Step
+from asmplan.planner.plan import Plan, Step, assembly_state
 from asmplan.planner.trajectory import Trajectory, rotation_angle_rad
 from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.execute import execute_step
 from asmplan.sim.fidelity import ACCURATE, BALANCED, FAST
 from asmplan.sim.gripper import CoupledGripper
-from asmplan.sim.scene import build_scene, gripper_spec, part_poses, step_scene
-from asmplan.sim.simulate import (
-    PlanResults,
-    clearance_warnings,
-    criteria_for,
-    simulate_plan,
-    simulate_step,
-)
+from asmplan.sim.results import PlanResults, criteria_for
+from asmplan.sim.scene import build_scene, gripper_spec, step_scene
+from asmplan.sim.simulate import clearance_warnings, simulate_plan, simulate_step
 
 G = 9.81
 
@@ -110,7 +105,7 @@ def test_gear_unit_collar_slides_onto_the_shaft_without_dragging_it():
     plan, product, geo = plan_for("gear_unit")
     step = plan.step("collar")
     assert step.trajectory is not None and step.grasp is not None
-    scene = step_scene(step, part_poses(plan, step.index), product, geo, BALANCED)
+    scene = step_scene(step, assembly_state(plan, step.index), product, geo, BALANCED)
     assert scene.contact_breaking_m == pytest.approx(40e-6)
     with BulletWorld(BALANCED) as world:
         ids = build_scene(world, scene)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 from asmplan.sim.fidelity import BALANCED
-from asmplan.sim.scenarios import BoxPart, G, lift_slip_m
+from bench.scenarios import BoxPart, G, lift_slip_m
 
 PART = BoxPart(mass_kg=0.1, friction=0.5)
 MU = 1.0 * PART.friction

@@ -52,21 +52,25 @@ def chamfer_insertion(params: sw.SampleParams) -> dict:
     u = u_cmd
     peak = 0.0
     reasons: list[str] = []
+    codes: list[tuple[str, float, float]] = []  # failed criterion, value, limit (SI)
     while z > -DEPTH_M:
         z_cmd = z - DZ_M
         if u >= CHAMFER_M and z_cmd < 0.0:
             reasons.append(f"pin landed on the top face: overhang {u * 1e3:.3f} mm >= chamfer "
                            f"{CHAMFER_M * 1e3:.3f} mm")
+            codes.append(("insertion_depth", DEPTH_M + min(z, 0.0), 0.0))
             break
         if 0.0 <= u < CHAMFER_M and z_cmd < u - CHAMFER_M:
             u = max(z_cmd + CHAMFER_M, 0.0)  # slide down the chamfer
             if mu >= 1.0:
                 reasons.append(f"friction {mu:.2f} >= 1 locks the 45-degree chamfer")
+                codes.append(("chamfer_lock", mu, 1.0))
                 break
             force = K_LATERAL_N_M * (u_cmd - u) * (1.0 + mu) / (1.0 - mu)
             peak = max(peak, force)
             if force > F_MAX_N:
                 reasons.append(f"wedged on the chamfer: {force:.2f} N > {F_MAX_N:.2f} N")
+                codes.append(("insertion_force", force, F_MAX_N))
                 break
             if u == 0.0:
                 u = -1e-12  # past the chamfer: in the bore
@@ -75,10 +79,12 @@ def chamfer_insertion(params: sw.SampleParams) -> dict:
             peak = max(peak, force)
             if force > F_MAX_N:
                 reasons.append(f"stuck on the bore wall: {force:.2f} N > {F_MAX_N:.2f} N")
+                codes.append(("insertion_force", force, F_MAX_N))
                 break
         z = z_cmd
     success = not reasons
-    return {"steps": {STEP: {"success": success, "reasons": reasons}},
+    failures = {code: {"value": value, "limit": limit} for code, value, limit in codes}
+    return {"steps": {STEP: {"success": success, "reasons": reasons, "failures": failures}},
             "depth_m": -min(z, 0.0), "peak_force_N": peak}
 
 
@@ -144,13 +150,13 @@ PIN_CLEARANCE = sw.ClearanceRange(MATE, 0.8e-3, 1.0e-3)  # diametral; FAST resol
 
 
 def pybullet_pin_insertion(fidelity_name: str, params: sw.SampleParams) -> dict:
-    """A real PyBullet pick-and-insert (asmplan.sim.scenarios.pin_insertion, no chamfer) per sample.
+    """A real PyBullet pick-and-insert (bench.scenarios.pin_insertion, no chamfer) per sample.
 
     The diametral clearance is the sample's; its lateral pose error magnitude becomes an
     offset of the place pose along x. The wall time is left out (not a physics result).
     """
     from asmplan.sim.fidelity import preset
-    from asmplan.sim.scenarios import pin_insertion
+    from bench.scenarios import pin_insertion
 
     _, outcome = pin_insertion(preset(fidelity_name), 0.5 * params.clearance_m[MATE],
                                lateral_offset_m=params.pose_error(STEP).lateral_norm_m)
@@ -436,8 +442,10 @@ def test_summary_of_a_pose_sweep_shows_the_chamfer_limit() -> None:
     assert 0.5 * CLEARANCE.min_m + CHAMFER_M - 0.05e-3 < pose.x50 < 0.5 * CLEARANCE.max_m + CHAMFER_M
     assert all(b.rate == 1.0 for b in pose.bins if b.high <= 0.5 * CLEARANCE.min_m + CHAMFER_M)
     assert all(b.rate == 0.0 for b in pose.bins if b.low >= 0.5 * CLEARANCE.max_m + CHAMFER_M)
-    assert st.failure_reasons == (
-        ("pin landed on the top face: overhang # mm >= chamfer # mm", 400 - sum(expected)),)
+    # counted by criterion code, with the measured values and the limit (no English parsed)
+    assert [(f.criterion, f.count) for f in st.failures] == [("insertion_depth", 400 - sum(expected))]
+    assert st.failures[0].limit == 0.0
+    assert st.failures[0].value_min == st.failures[0].value_max == pytest.approx(DEPTH_M)
     # clearance helps (positive correlation) but less than pose error
     clear = next(e for e in st.effects if e.factor == f"clearance[{MATE}]")
     assert 0 < clear.correlation < abs(pose.correlation)
@@ -447,19 +455,22 @@ def test_summary_of_a_pose_sweep_shows_the_chamfer_limit() -> None:
 def test_summary_leaves_errored_samples_out_of_the_rates() -> None:
     spec, samples = chamfer_samples(5)
     results = [sw.TaskResult(i, True, chamfer_insertion(s)) for i, s in enumerate(samples)]
-    results[1] = sw.TaskResult(1, False, None, "worker died 3 times running this sample (X)", 3)
+    results[1] = sw.TaskResult(1, False, None, "worker died 3 times running this sample (X)", 3,
+                               "worker_died")
     summary = sw.summarize(samples, results, spec.vary)
-    assert summary.n_errors == 1 and summary.errors == (("worker died # times running this sample (X)", 1),)
+    assert summary.n_errors == 1 and summary.errors == (("worker_died", 1),)
     assert summary.step(STEP).n == 4
 
 
 def test_throughput_times_each_executor_on_the_same_work() -> None:
-    task = functools.partial(sw.calibration_task, n_rounds=2)
-    rows = sw.throughput(task, list(range(8)), local_workers=(1, 2), dask_workers=None, repeats=2)
+    from bench import throughput as tp
+
+    task = functools.partial(tp.calibration_task, n_rounds=2)
+    rows = tp.throughput(task, list(range(8)), local_workers=(1, 2), dask_workers=None, repeats=2)
     assert [(r.label, r.workers, r.n_tasks, r.repeats) for r in rows] == [
         ("local pool, 1 worker", 1, 8, 2), ("local pool, 2 workers", 2, 8, 2)]
     assert all(r.per_second == pytest.approx(8 / r.wall_s) for r in rows)
-    table = sw.format_throughput(rows).splitlines()
+    table = tp.format_throughput(rows).splitlines()
     assert len(table) == 4 and table[2].startswith("| local pool, 1 worker | 1 | 8 |")
     # the stand-in work is deterministic wherever it runs
     out = sw.run_sweep(task, [0, 1], max_workers=1)
@@ -536,7 +547,7 @@ LOOSE_PEG = "peg_in_hole_loose"
 def loose_peg_sweep(tmp_path_factory: pytest.TempPathFactory) -> sw.PlanSweep:
     """The bundled peg-in-hole with a 0.1-0.2 mm clearance (resolved at BALANCED) and its plan."""
     from asmplan.knowledge.loader import load_product
-    from asmplan.planner.motion import plan_product
+    from asmplan.planner.product import plan_product
     from asmplan.sim.fidelity import BALANCED
 
     text = (Path(__file__).resolve().parents[2] / "examples" / "peg_in_hole.yaml").read_text()
@@ -546,7 +557,9 @@ def loose_peg_sweep(tmp_path_factory: pytest.TempPathFactory) -> sw.PlanSweep:
     path = tmp_path_factory.mktemp("loose") / "loose.yaml"
     path.write_text(text)
     product = load_product(path)
-    return sw.PlanSweep(product, plan_product(product).plan, BALANCED)
+    from asmplan.parts.models import ProductGeometry
+
+    return sw.PlanSweep(product, plan_product(product, ProductGeometry(product)).plan, BALANCED)
 
 
 @pytest.mark.slow

@@ -21,7 +21,7 @@ from asmplan.planner.trajectory import (
     seed_cycle,
     trajectory_from_segments,
 )
-from asmplan.sim.scenarios import R_DOWN, pose
+from bench.scenarios import R_DOWN, pose
 
 
 def random_rotations(n: int, seed: int) -> np.ndarray:

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..parts.decompose import HoleSpec, block_with_holes_pieces
-from ..parts.pieces import ConvexPiece
-from ..planner.trajectory import (
+from asmplan.parts.decompose import HoleSpec, block_with_holes_pieces
+from asmplan.parts.pieces import ConvexPiece
+from asmplan.planner.trajectory import (
     PhaseSpan,
     Segment,
     Trajectory,
@@ -32,11 +32,11 @@ from ..planner.trajectory import (
     seed_cycle,
     trajectory_from_segments,
 )
-from .bullet import BulletWorld
-from .execute import execute_step
-from .fidelity import Fidelity
-from .gripper import Gripper, GripperSpec
-from .records import StepOutcome, StepRecord, SuccessCriteria
+from asmplan.sim.bullet import BulletWorld
+from asmplan.sim.execute import execute_step
+from asmplan.sim.fidelity import Fidelity
+from asmplan.sim.gripper import Gripper, GripperSpec
+from asmplan.sim.records import StepOutcome, StepRecord, SuccessCriteria
 
 G = 9.81
 """Gravity in the scenes, m/s^2 (PyBullet's world is set up with the same value)."""

@@ -4,7 +4,7 @@ For each size the product is generated with the same seed, then planned ``repeat
 from scratch (collision models, blocking sweeps, precedence, search); the table reports the
 median of each phase and the growth exponent between consecutive sizes,
 ``k = log(t2 / t1) / log(n2 / n1)`` (time ~ n^k). Run it with
-``python -m asmplan.planner.bench_sequence [--sizes 5 10 20 50] [--repeats 3] [--seed 0]``;
+``python -m bench.sequence [--sizes 5 10 20 50] [--repeats 3] [--seed 0]``;
 the ``asmplan bench`` command can call :func:`bench` and :func:`format_table`.
 """
 
@@ -19,10 +19,10 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from ..knowledge.generator import generated_product
-from ..knowledge.model import Product
-from .blocking import GeometryOracle
-from .sequence import SequenceSettings, plan_sequence
+from asmplan.knowledge.generator import generated_product
+from asmplan.knowledge.model import Product
+from asmplan.planner.blocking import GeometryOracle
+from asmplan.planner.sequence import SequenceSettings, plan_sequence
 
 DEFAULT_SIZES: tuple[int, ...] = (5, 10, 20, 50)
 
@@ -52,9 +52,10 @@ class BenchRow:
 
 
 def _default_oracle(product: Product) -> GeometryOracle:
-    from .fcl_oracle import FclOracle
+    from asmplan.parts.models import ProductGeometry
+    from asmplan.planner.fcl_oracle import FclOracle
 
-    return FclOracle(product)
+    return FclOracle(product, ProductGeometry(product))
 
 
 def bench(sizes: Sequence[int] = DEFAULT_SIZES, *, seed: int = 0, repeats: int = 3,
@@ -89,8 +90,9 @@ def bench(sizes: Sequence[int] = DEFAULT_SIZES, *, seed: int = 0, repeats: int =
         assert plan is not None
         med = [statistics.median(r[i] for r in runs) for i in range(4)]
         sweeps = sum(len(plan.blocking.directions[p]) + 1 for p in plan.blocking.parts)
+        geometry_s, blocking_s, precedence_s, search_s = med
         rows.append(BenchRow(n, seed, plan.method, plan.states, plan.feasible_count, sweeps,
-                             plan.best.cost_s, *med,
+                             plan.best.cost_s, geometry_s, blocking_s, precedence_s, search_s,
                              total_s=statistics.median(sum(r) for r in runs)))
     return rows
 
@@ -122,8 +124,8 @@ def format_table(rows: Sequence[BenchRow], repeats: int | None = None) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m asmplan.planner.bench_sequence``: print the benchmark table."""
-    parser = argparse.ArgumentParser(prog="python -m asmplan.planner.bench_sequence",
+    """``python -m bench.sequence``: print the benchmark table."""
+    parser = argparse.ArgumentParser(prog="python -m bench.sequence",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=list(DEFAULT_SIZES))
     parser.add_argument("--repeats", type=int, default=3)

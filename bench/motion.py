@@ -8,7 +8,7 @@ the lifted pose straight into the seated pose (no pre-insertion pose, no straigh
 within ``direct_budget_s`` (one query, no re-planning); the ratio is baseline time / our time
 (a lower bound when the baseline finds no path within its budget).
 
-Run ``python -m asmplan.planner.bench_motion [PRODUCT.yaml ...]`` (default: the bundled
+Run ``python -m bench.motion [PRODUCT.yaml ...]`` (default: the bundled
 examples); ``asmplan bench`` calls :func:`bench`.
 """
 
@@ -22,11 +22,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
-from ..knowledge.loader import load_product
-from ..parts.models import ProductGeometry
-from .errors import PlanningError
-from .motion import MotionPlanner, part_data, plan_product
-from .plan import PlannerSettings
+from asmplan.knowledge.loader import load_product
+from asmplan.parts.models import ProductGeometry
+from asmplan.planner.errors import PlanningError
+from asmplan.planner.motion import MotionPlanner
+from asmplan.planner.partdata import part_data
+from asmplan.planner.plan import PlannerSettings
+from asmplan.planner.product import plan_product
 
 EXAMPLES = ("pinhole_station", "peg_in_hole", "gear_unit")
 TARGET_MS = 50.0
@@ -77,6 +79,13 @@ class ProductBench:
         return 1e3 * statistics.median(s.cpu_s for s in self.steps) if self.steps else 0.0
 
 
+class DirectInsertionPlanner(MotionPlanner):
+    """The baseline: OMPL from the lifted pose straight into the seated pose (no pre-insertion
+    pose and no straight insertion)."""
+
+    seats_directly = True
+
+
 def _example_path(name: str) -> Path:
     from importlib import resources
 
@@ -89,9 +98,10 @@ def bench_product(path: str | Path, settings: PlannerSettings | None = None,
     settings = settings or PlannerSettings()
     product = load_product(path)
     t0 = time.perf_counter()
-    parts = part_data(product, settings, ProductGeometry(product))
+    geometry = ProductGeometry(product)
+    parts = part_data(product, settings, geometry)
     geometry_s = time.perf_counter() - t0
-    result = plan_product(product, settings, parts=parts)
+    result = plan_product(product, geometry, settings, parts=parts)
     plan = result.plan
     direct_settings = PlannerSettings(**{**settings.as_dict(), "timing": settings.timing,
                                          "time_budget_s": direct_budget_s,
@@ -100,7 +110,7 @@ def bench_product(path: str | Path, settings: PlannerSettings | None = None,
     for step, timing in zip(plan.steps, result.step_times, strict=True):
         if step.kind == "fixture":
             continue
-        base = MotionPlanner(product, direct_settings, parts, direct_insertion=True)
+        base = DirectInsertionPlanner(product, direct_settings, parts)
         for earlier in plan.steps[: step.index]:
             base.place(earlier.part)
         t = time.perf_counter()
@@ -163,7 +173,7 @@ def bench(products: Sequence[str | Path] | None = None, settings: PlannerSetting
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m asmplan.planner.bench_motion [PRODUCT ...]``."""
+    """``python -m bench.motion [PRODUCT ...]``."""
     args = list(sys.argv[1:] if argv is None else argv)
     bench(args or None)
     return 0

@@ -6,7 +6,7 @@ the accuracy assertions (:data:`BOUNDS`, :func:`check_bounds`) are separate. Tim
 and reported, never asserted: the machine is shared and noisy.
 
 Accuracy scenarios (the physics validation scenes of ``tests/sim``, defined once in
-:mod:`asmplan.sim.scenarios`):
+:mod:`bench.scenarios`):
 
 * seed clamp cycle: an 80 g box through the seed paper's 4 s clamp-lift-translate-lower-release
   cycle; figure = mean absolute error between measured and commanded clamp force over the
@@ -21,6 +21,7 @@ Accuracy scenarios (the physics validation scenes of ``tests/sim``, defined once
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import itertools
 import math
@@ -36,6 +37,8 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from asmplan.commands.bench import SCALING_SIZES
+
 PAPER_MAE_N = 0.03
 """Mean clamp-force error the seed paper reports between prediction and measurement, N."""
 
@@ -43,10 +46,8 @@ REFERENCE_DT_S = 1.0 / 16000.0
 """Time step of the converged reference insertion runs (ACCURATE settings otherwise), s."""
 INSERTION_CLEARANCES_M: tuple[float, ...] = (0.2e-3, 0.025e-3)
 """Radial clearances of the insertion scenarios (each run as fit +c and interference -c), m."""
-SECTIONS: tuple[str, ...] = ("accuracy", "seed", "planning", "scaling", "culling", "sweep")
 SEED_RUNS = 9
 """Repetitions of each seed-workstation timing (medians are reported)."""
-SCALING_SIZES: tuple[int, ...] = (5, 10, 20, 50, 100)
 CULLING_SIZE = 50
 SCALING_FIT_MM = 0.5
 """Diametral clearance of every pin of the generated scaling products, mm: above FAST's
@@ -116,7 +117,7 @@ def slip_threshold_error(fidelity: Any, accel_mps2: float = 2.0, iterations: int
     A 100 g box, mu = 1.0 (pads) x 0.5; bracket [0.5, 2] x analytic, ``iterations`` halvings
     (8: a step of 0.6 %).
     """
-    from .sim.scenarios import BoxPart, G, lift_slip_m
+    from .scenarios import BoxPart, G, lift_slip_m
 
     part = BoxPart(mass_kg=0.1, friction=0.5)
     analytic = part.mass_kg * (G + accel_mps2) / (2 * 1.0 * part.friction)
@@ -146,12 +147,12 @@ class InsertionRun:
 def pin_insertion(fidelity: Any, radial_clearance_m: float) -> InsertionRun:
     """Pick a standing 40 mm steel pin, carry it over a 10 mm, 20 mm deep blind hole in a
     fixtured 40 x 40 x 30 mm block and push it straight in to 0.2 mm above the floor
-    (:func:`asmplan.sim.scenarios.pin_insertion`, the scene of ``tests/sim``).
+    (:func:`bench.scenarios.pin_insertion`, the scene of ``tests/sim``).
 
     ``radial_clearance_m`` < 0 makes an interference fit. No chamfer.
     """
-    from .sim.scenarios import entered_depth_m
-    from .sim.scenarios import pin_insertion as insert
+    from .scenarios import entered_depth_m
+    from .scenarios import pin_insertion as insert
 
     t0 = time.perf_counter()
     record, outcome = insert(fidelity, radial_clearance_m)
@@ -162,9 +163,9 @@ def pin_insertion(fidelity: Any, radial_clearance_m: float) -> InsertionRun:
 
 def reference_fidelity(dt_s: float = REFERENCE_DT_S) -> Any:
     """ACCURATE with a smaller time step (record interval kept at 4 ms)."""
-    from .sim.fidelity import ACCURATE
+    from asmplan.sim.fidelity import ACCURATE
 
-    return ACCURATE.replace(name=f"reference dt 1/{round(1 / dt_s)} s", dt_s=dt_s,
+    return dataclasses.replace(ACCURATE, name=f"reference dt 1/{round(1 / dt_s)} s", dt_s=dt_s,
                             record_every_steps=max(1, round(0.004 / dt_s)))
 
 
@@ -221,8 +222,9 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
         depth difference (``convergence_m``).
     log : called with one line per finished run (progress).
     """
-    from .sim.fidelity import preset
-    from .sim.scenarios import run_seed_cycle
+    from asmplan.sim.fidelity import preset
+
+    from .scenarios import run_seed_cycle
 
     say = log or (lambda _s: None)
     cases = [s * c for c in (INSERTION_CLEARANCES_M if clearances_m is None else clearances_m)
@@ -313,7 +315,7 @@ class PlanningResult:
 
 def run_planning(products: Sequence[str] | None = None, direct_budget_s: float = 2.0) -> PlanningResult:
     """Per-step motion-planning time and the ratio against direct OMPL insertion planning."""
-    from .planner.bench_motion import bench
+    from .motion import bench
 
     buf = io.StringIO()
     rows = bench(products, direct_budget_s=direct_budget_s, stream=buf)
@@ -368,9 +370,9 @@ def run_scaling(sizes: Sequence[int] = SCALING_SIZES, seed: int = 0, fidelity: s
     Returns the rows and the :class:`~asmplan.pipeline.RunResult` of size ``keep`` (reused by
     :func:`run_culling`; None if that size was not run). A failure is a row, not an exception.
     """
-    from .knowledge.generator import generate_product, product_yaml
-    from .knowledge.loader import load_product
-    from .pipeline import RunSettings, run_product, write_outputs
+    from asmplan.knowledge.generator import generate_product, product_yaml
+    from asmplan.knowledge.loader import load_product
+    from asmplan.pipeline import RunSettings, run_product, write_outputs
 
     say = log or (lambda _s: None)
     rows, kept = [], None
@@ -429,11 +431,12 @@ def run_culling(result: Any | None, n_parts: int = CULLING_SIZE, seed: int = 0,
     50-part product costs ~100 s per step at fast, so all 49 steps would take over an hour);
     None runs every step.
     """
-    from .knowledge.generator import generated_product
-    from .knowledge.loader import load_product
-    from .pipeline import RunSettings, run_product
-    from .planner.bench_motion import _example_path
-    from .sim.simulate import simulate_plan
+    from asmplan.knowledge.generator import generated_product
+    from asmplan.knowledge.loader import load_product
+    from asmplan.pipeline import RunSettings, run_product
+    from asmplan.sim.simulate import simulate_plan
+
+    from .motion import _example_path
 
     if example is not None:
         result = run_product(load_product(_example_path(example)),
@@ -495,8 +498,9 @@ def run_seed_timing(runs: int = SEED_RUNS, log: Callable[[str], None] | None = N
     """Time the seed workstation at FAST without the report (see :class:`SeedRunTiming`)."""
     import sys
 
-    from .pipeline import RunSettings, run_product, write_outputs
-    from .planner.bench_motion import _example_path
+    from asmplan.pipeline import RunSettings, run_product, write_outputs
+
+    from .motion import _example_path
 
     say = log or (lambda _s: None)
     seed = str(_example_path("pinhole_station"))
@@ -552,7 +556,7 @@ class SweepResult:
 
 
 def _sweep_task(sweep: Any, params: Any) -> Any:
-    from .sim.sweep import simulate_sample
+    from asmplan.sim.sweep import simulate_sample
 
     return simulate_sample(sweep, params)
 
@@ -563,11 +567,13 @@ def run_sweep_throughput(product: str = "peg_in_hole", n_tasks: int = 8, fidelit
     2 local workers and a 2-worker Dask LocalCluster."""
     import functools
 
-    from .knowledge.loader import load_product
-    from .pipeline import RunSettings, run_product
-    from .planner.bench_motion import _example_path
-    from .sim.fidelity import preset
-    from .sim.sweep import PlanSweep, SweepSpec, throughput
+    from asmplan.knowledge.loader import load_product
+    from asmplan.pipeline import RunSettings, run_product
+    from asmplan.sim.fidelity import preset
+    from asmplan.sim.sweep import PlanSweep, SweepSpec
+
+    from .motion import _example_path
+    from .throughput import throughput
 
     p = load_product(_example_path(product))
     result = run_product(p, RunSettings(fidelity=fidelity, simulate=False))
@@ -758,7 +764,7 @@ def format_culling(results: Sequence[CullingResult]) -> str:
 
 def format_sweep(s: SweepResult) -> str:
     """Markdown: :func:`asmplan.sim.sweep.format_throughput` of the sweep."""
-    from .sim.sweep import format_throughput
+    from .throughput import format_throughput
 
     if s.failure:
         return f"Not measured: {s.failure.splitlines()[0][:200]}\n"
@@ -842,7 +848,7 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
             "```", ""]
     if rep.accuracy is not None:
         out += ["## Accuracy vs cost per preset", "",
-                "Scenarios in `asmplan/bench.py` (the validation scenes of `tests/sim`, docs/physics.md). "
+                "Scenarios in `bench/suite.py` (the validation scenes of `tests/sim`, docs/physics.md). "
                 "The insertion reference is ACCURATE with a 16x smaller time step; figures of a scenario "
                 "below a preset's `min_resolvable_clearance_m` are reported but not asserted.", "",
                 format_accuracy_summary(rep.accuracy), format_accuracy(rep.accuracy)]
@@ -850,12 +856,12 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
             out += [f"![accuracy vs cost]({plot_name})", ""]
     if rep.seed is not None:
         out += ["## The seed workstation end to end", "",
-                "`asmplan.bench.run_seed_timing()`: the bundled seed workstation (4 parts, 3 "
+                "`bench.suite.run_seed_timing()`: the bundled seed workstation (4 parts, 3 "
                 "insertions) at FAST without the report, the issue's < 2 s target; the CLI row "
                 "is what a user waits for.", "", format_seed_timing(rep.seed)]
     if rep.planning is not None:
         out += ["## Motion planning per step vs direct OMPL insertion", "",
-                "`asmplan.planner.bench_motion.bench()`: each pick-and-insert step of the bundled examples "
+                "`bench.motion.bench()`: each pick-and-insert step of the bundled examples "
                 "(one run), against OMPL planning from the lifted pose straight into the seated pose with "
                 "a 2 s budget; `>=` marks a lower bound (the baseline failed within its budget).", "",
                 format_planning(rep.planning), "<details><summary>per step</summary>", "", "```",
@@ -884,7 +890,7 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
                 format_culling(rep.culling)]
     if rep.sweep is not None:
         out += ["## Sweep throughput", "",
-                "`asmplan.sim.sweep.throughput()`: the same tasks through a local process pool with 1 and 2 "
+                "`bench.throughput.throughput()`: the same tasks through a local process pool with 1 and 2 "
                 "workers and a local 2-worker Dask cluster, after a warm-up (start-up column).", "",
                 format_sweep(rep.sweep)]
     out += ["## Accuracy bounds", "", "| figure | preset | bound | reason |", "| --- | --- | ---: | --- |"]

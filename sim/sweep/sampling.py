@@ -1,0 +1,309 @@
+"""Sampling of a sweep: which factors vary and how, and each sample's values from its own seeded
+stream (see :mod:`asmplan.sim.sweep`).
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+try:  # POSIX advisory locks keep two sweeps from appending to one journal
+    import fcntl
+except ImportError:  # pragma: no cover - Windows
+    fcntl = None  # type: ignore[assignment]
+FACTORS: tuple[str, ...] = ("clearance", "friction", "pose")
+"""Factors a sweep can vary."""
+
+_TRUNC_Z = 3.0
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """What a sweep samples: which factors vary, their spreads, how many samples, the seed.
+
+    Parameters
+    ----------
+    n_samples : int
+        Number of samples (>= 1).
+    seed : int
+        Seed of every random choice (>= 0).
+    vary : tuple of str
+        Subset of :data:`FACTORS` that vary; the others stay nominal (clearance at the middle
+        of its range, friction as declared, zero pose error).
+    clearance_distribution : {"uniform", "truncnormal"}
+        See the module docstring.
+    friction_rel_sigma : float
+        Relative 1-sigma spread of each friction coefficient, in [0, 1/3) so that the
+        truncated multiplier stays positive.
+    pose_lateral_m : float
+        Lateral robot error: sigma per axis ("normal") or largest magnitude ("uniform"), m.
+    pose_angular_rad : float
+        Tilt error: sigma per axis ("normal") or largest magnitude ("uniform"), rad.
+    pose_distribution : {"normal", "uniform"}
+        See the module docstring.
+    """
+
+    n_samples: int
+    seed: int = 0
+    vary: tuple[str, ...] = FACTORS
+    clearance_distribution: Literal["uniform", "truncnormal"] = "uniform"
+    friction_rel_sigma: float = 0.1
+    pose_lateral_m: float = 0.2e-3
+    pose_angular_rad: float = math.radians(0.2)
+    pose_distribution: Literal["normal", "uniform"] = "normal"
+
+    def __post_init__(self) -> None:
+        if isinstance(self.n_samples, bool) or int(self.n_samples) != self.n_samples or self.n_samples < 1:
+            raise ValueError(f"SweepSpec.n_samples: expected an integer >= 1, found {self.n_samples!r}")
+        if isinstance(self.seed, bool) or int(self.seed) != self.seed or self.seed < 0:
+            raise ValueError(f"SweepSpec.seed: expected an integer >= 0, found {self.seed!r}")
+        object.__setattr__(self, "n_samples", int(self.n_samples))
+        object.__setattr__(self, "seed", int(self.seed))
+        vary = (self.vary,) if isinstance(self.vary, str) else tuple(self.vary)
+        unknown = [v for v in vary if v not in FACTORS]
+        if unknown:
+            raise ValueError(
+                f"SweepSpec.vary: expected factors among {list(FACTORS)}, found {unknown}")
+        # canonical order, no duplicates: the spec (and the journal header) does not depend on
+        # how the user listed them
+        object.__setattr__(self, "vary", tuple(f for f in FACTORS if f in vary))
+        if self.clearance_distribution not in ("uniform", "truncnormal"):
+            raise ValueError("SweepSpec.clearance_distribution: expected 'uniform' or "
+                             f"'truncnormal', found {self.clearance_distribution!r}")
+        if self.pose_distribution not in ("normal", "uniform"):
+            raise ValueError("SweepSpec.pose_distribution: expected 'normal' or 'uniform', "
+                             f"found {self.pose_distribution!r}")
+        s = float(self.friction_rel_sigma)
+        if not (math.isfinite(s) and 0.0 <= s < 1.0 / _TRUNC_Z):
+            raise ValueError(
+                f"SweepSpec.friction_rel_sigma: expected a value in [0, 1/3), found {s}")
+        for name in ("pose_lateral_m", "pose_angular_rad"):
+            v = float(getattr(self, name))
+            if not (math.isfinite(v) and v >= 0.0):
+                raise ValueError(f"SweepSpec.{name}: expected a finite value >= 0, found {v}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe dict (``vary`` as a list)."""
+        d = asdict(self)
+        d["vary"] = list(self.vary)
+        return d
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> SweepSpec:
+        """Inverse of :meth:`to_dict`."""
+        d = dict(data)
+        d["vary"] = tuple(d.get("vary", FACTORS))
+        return cls(**d)
+
+
+@dataclass(frozen=True)
+class PoseError:
+    """Robot positioning error of one step, in the step's insertion frame.
+
+    The insertion frame's z axis is the insertion direction; x and y span the plane across it.
+
+    Attributes
+    ----------
+    lateral_m : (2,) tuple of float
+        Offset of the part along x and y, m.
+    tilt_rad : (2,) tuple of float
+        Small rotations about x and y, rad.
+    """
+
+    lateral_m: tuple[float, float] = (0.0, 0.0)
+    tilt_rad: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def lateral_norm_m(self) -> float:
+        return math.hypot(*self.lateral_m)
+
+    @property
+    def tilt_norm_rad(self) -> float:
+        return math.hypot(*self.tilt_rad)
+
+
+@dataclass(frozen=True)
+class SampleParams:
+    """The values one sample runs with (picklable, JSON-able with :meth:`to_dict`).
+
+    Attributes
+    ----------
+    index : int
+        Sample index in the sweep.
+    seed : int
+        The sweep seed (``SweepSpec.seed``).
+    clearance_m : dict of str to float
+        Diametral clearance per mate name, m.
+    friction : dict of str to float
+        Friction coefficient per part name.
+    pose : dict of str to PoseError
+        Robot error per step name.
+    """
+
+    index: int
+    seed: int
+    clearance_m: dict[str, float] = field(default_factory=dict)
+    friction: dict[str, float] = field(default_factory=dict)
+    pose: dict[str, PoseError] = field(default_factory=dict)
+
+    def pose_error(self, step: str) -> PoseError:
+        """The robot error of ``step`` (zero when the sweep has none for it)."""
+        return self.pose.get(step, PoseError())
+
+    def factors(self, step: str, vary: Sequence[str] = FACTORS) -> dict[str, float]:
+        """Scalar factor values of this sample as seen by ``step``, for the statistics.
+
+        Keys: ``clearance[<mate>]`` (m), ``friction[<part>]``, ``pose_lateral_m`` (magnitude,
+        m) and ``pose_angular_rad`` (magnitude, rad); only the factors in ``vary``.
+        """
+        out: dict[str, float] = {}
+        if "clearance" in vary:
+            out.update({f"clearance[{k}]": v for k, v in sorted(self.clearance_m.items())})
+        if "friction" in vary:
+            out.update({f"friction[{k}]": v for k, v in sorted(self.friction.items())})
+        if "pose" in vary:
+            p = self.pose_error(step)
+            out["pose_lateral_m"] = p.lateral_norm_m
+            out["pose_angular_rad"] = p.tilt_norm_rad
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "index": self.index,
+            "seed": self.seed,
+            "clearance_m": dict(self.clearance_m),
+            "friction": dict(self.friction),
+            "pose": {k: {"lateral_m": list(p.lateral_m), "tilt_rad": list(p.tilt_rad)}
+                     for k, p in self.pose.items()},
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> SampleParams:
+        return cls(
+            index=int(data["index"]),
+            seed=int(data["seed"]),
+            clearance_m={k: float(v) for k, v in data.get("clearance_m", {}).items()},
+            friction={k: float(v) for k, v in data.get("friction", {}).items()},
+            pose={k: PoseError(tuple(v["lateral_m"]), tuple(v["tilt_rad"]))
+                  for k, v in data.get("pose", {}).items()},
+        )
+
+
+@dataclass(frozen=True)
+class ClearanceRange:
+    """A mate's declared diametral clearance range [min_m, max_m] (negative: interference)."""
+
+    mate: str
+    min_m: float
+    max_m: float
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.min_m) and math.isfinite(self.max_m) and self.min_m <= self.max_m):
+            raise ValueError(f"ClearanceRange {self.mate}: expected finite min <= max, found "
+                             f"[{self.min_m}, {self.max_m}]")
+
+
+def factor_rng(seed: int, index: int, name: str) -> np.random.Generator:
+    """The random stream of factor ``name`` in sample ``index`` of a sweep seeded ``seed``."""
+    key = zlib.crc32(name.encode("utf-8"))
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(index, key)))
+
+
+def _truncated_standard_normal(rng: np.random.Generator) -> float:
+    while True:  # rejection: accepts 99.7 % of draws
+        z = float(rng.standard_normal())
+        if abs(z) <= _TRUNC_Z:
+            return z
+
+
+def _planar(rng: np.random.Generator, scale: float, distribution: str) -> tuple[float, float]:
+    if scale == 0.0:
+        return (0.0, 0.0)
+    if distribution == "normal":
+        a, b = rng.normal(0.0, scale, size=2)
+        return (float(a), float(b))
+    r = float(rng.uniform(0.0, scale))
+    theta = float(rng.uniform(0.0, 2.0 * math.pi))
+    return (r * math.cos(theta), r * math.sin(theta))
+
+
+def draw_sample(
+    spec: SweepSpec,
+    index: int,
+    clearances: Sequence[ClearanceRange],
+    friction: Mapping[str, float],
+    steps: Sequence[str],
+) -> SampleParams:
+    """The parameters of sample ``index`` (a pure function of its arguments).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+    index : int
+        Sample index, 0 <= index (may exceed ``spec.n_samples`` when extending a sweep).
+    clearances : sequence of ClearanceRange
+        Declared clearance range of each mate.
+    friction : mapping of str to float
+        Nominal friction coefficient per part name.
+    steps : sequence of str
+        Step names that get a robot pose error.
+
+    Returns
+    -------
+    SampleParams
+    """
+    if index < 0:
+        raise ValueError(f"draw_sample: expected index >= 0, found {index}")
+    clear: dict[str, float] = {}
+    for c in sorted(clearances, key=lambda c: c.mate):
+        if "clearance" not in spec.vary or c.max_m == c.min_m:
+            clear[c.mate] = 0.5 * (c.min_m + c.max_m)
+            continue
+        rng = factor_rng(spec.seed, index, f"clearance/{c.mate}")
+        if spec.clearance_distribution == "uniform":
+            clear[c.mate] = float(rng.uniform(c.min_m, c.max_m))
+        else:
+            mid, half = 0.5 * (c.min_m + c.max_m), 0.5 * (c.max_m - c.min_m)
+            clear[c.mate] = mid + half * _truncated_standard_normal(rng) / _TRUNC_Z
+    fric: dict[str, float] = {}
+    for part, mu in sorted(friction.items()):
+        if "friction" not in spec.vary or spec.friction_rel_sigma == 0.0:
+            fric[part] = float(mu)
+            continue
+        rng = factor_rng(spec.seed, index, f"friction/{part}")
+        fric[part] = float(mu) * (1.0 + spec.friction_rel_sigma * _truncated_standard_normal(rng))
+    pose: dict[str, PoseError] = {}
+    for step in steps:
+        if "pose" not in spec.vary:
+            pose[step] = PoseError()
+            continue
+        rng = factor_rng(spec.seed, index, f"pose/{step}")
+        lateral = _planar(rng, spec.pose_lateral_m, spec.pose_distribution)
+        tilt = _planar(rng, spec.pose_angular_rad, spec.pose_distribution)
+        pose[step] = PoseError(lateral, tilt)
+    return SampleParams(index=index, seed=spec.seed, clearance_m=clear, friction=fric, pose=pose)
+
+
+def draw_samples(
+    spec: SweepSpec,
+    clearances: Sequence[ClearanceRange],
+    friction: Mapping[str, float],
+    steps: Sequence[str],
+) -> list[SampleParams]:
+    """All ``spec.n_samples`` samples, in index order (see :func:`draw_sample`)."""
+    return [draw_sample(spec, i, clearances, friction, steps) for i in range(spec.n_samples)]
+
+
+def clearance_ranges(product: Any) -> tuple[ClearanceRange, ...]:
+    """The declared clearance range of every mate of a :class:`~asmplan.knowledge.model.Product`."""
+    return tuple(ClearanceRange(m.name, m.clearance_min_m, m.clearance_max_m) for m in product.mates)
+
+
+def nominal_friction(product: Any) -> dict[str, float]:
+    """Friction coefficient per part of a :class:`~asmplan.knowledge.model.Product`."""
+    return {p.name: float(p.friction) for p in product.parts}
+
