@@ -29,12 +29,15 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..knowledge.model import Product
 from .grasp import GripLoad, iter_grasps
+
+if TYPE_CHECKING:
+    from ..parts.models import ProductGeometry
 
 _Z = np.array([0.0, 0.0, 1.0])
 
@@ -128,19 +131,25 @@ class GripperAccess:
     """Lazily computed :class:`Access` per (part, insertion direction), for one product."""
 
     product: Product
-    geometry: Any | None = None
+    geometry: ProductGeometry | None = None
     settings: AccessSettings = field(default_factory=AccessSettings)
     _scene: Any = None
     _parts: Any = None
     _cache: dict[tuple[Any, ...], Access] = field(default_factory=dict)
 
     def _setup(self) -> None:
-        from .motion import Scene, initial_layout, part_data
+        from ..parts.models import ProductGeometry
+        from .layout import initial_layout
+        from .partdata import part_data
         from .plan import PlannerSettings
+        from .scene import Scene
 
         ps = PlannerSettings(contact_tolerance_m=self.settings.contact_tolerance_m,
                              finger_clearance_m=self.settings.finger_clearance_m)
-        self._parts = part_data(self.product, ps, self.geometry)
+        # the sequence planner's oracle carries the product's geometry; a box oracle or a
+        # precomputed blocking table does not, and then the screening builds its own
+        geometry = self.geometry if self.geometry is not None else ProductGeometry(self.product)
+        self._parts = part_data(self.product, ps, geometry)
         self._starts, _ = initial_layout(self.product, self._parts)
         poses = {n: self.product.T_world_assembled(n) for n in self.product.part_names}
         self._scene = Scene(self.product, self._parts, poses, ps.contact_tolerance_m)
@@ -160,7 +169,7 @@ class GripperAccess:
 
     def _compute(self, part: str, u: np.ndarray, pre_distance_m: float,
                  required: frozenset[str]) -> Access:
-        from .motion import GRIPPER_CLOSED, GRIPPER_OPEN, GRIPPER_SPAN, TABLE
+        from .scene import GRIPPER_CLOSED, GRIPPER_OPEN, GRIPPER_SPAN, TABLE
 
         if self._scene is None:
             self._setup()
@@ -174,8 +183,9 @@ class GripperAccess:
         limits_a = (product.part(part).handling.max_acceleration_m_s2
                     or product.process.max_acceleration_m_s2)
         limit_N = float(gripper.max_force_N)
-        if product.part(part).handling.max_clamp_force_N is not None:
-            limit_N = min(limit_N, float(product.part(part).handling.max_clamp_force_N))
+        part_limit_N = product.part(part).handling.max_clamp_force_N
+        if part_limit_N is not None:
+            limit_N = min(limit_N, float(part_limit_N))
         cands = iter_grasps(part, data.surface, gripper, product.part(part).handling.grasp,
                             part_friction=product.part(part).friction,
                             finger_clearance_m=s.finger_clearance_m,

@@ -839,6 +839,8 @@ class _Compiled:
             (self.product.feature(m.pin_part, m.pin_feature).length_m for m in self.product.mates
              if name in (m.pin_part, m.hole_part)), default=0.0)
         required = frozenset(self.bits(self.pred[p]))
+        if self.access is None:
+            raise ValueError("gripper access is off (SequenceSettings.gripper_access)")
         return self.access.access(name, ins, pre, required)
 
     def reachable(self, p: int, d: int, done: int) -> bool:

@@ -13,7 +13,25 @@ from asmplan.knowledge.loader import load_product
 from asmplan.parts.check import check_assembly
 from asmplan.parts.collision import CollisionWorld
 from asmplan.parts.models import ProductGeometry
+from asmplan.planner.fcl_oracle import FclOracle
+from asmplan.planner.motion import MotionPlanner
+from asmplan.planner.partdata import part_data
+from asmplan.planner.product import plan_product
 from asmplan.planner.sequence import plan_sequence
+
+
+def sequence_of(product, settings=None):
+    """The sequence plan with the product's own geometry."""
+    return plan_sequence(product, FclOracle(product, ProductGeometry(product)), settings)
+
+
+def planned(product):
+    """The motion plan with the product's own geometry."""
+    return plan_product(product, ProductGeometry(product))
+
+
+def motion_planner(product, settings):
+    return MotionPlanner(product, settings, part_data(product, settings, ProductGeometry(product)))
 
 PRODUCTS = Path(__file__).resolve().parents[1] / "fixtures" / "products"
 
@@ -65,8 +83,8 @@ def gear_on_ribs(tmp_path: Path, gap_m: float) -> Path:
 def test_part_resting_micrometres_above_ribs_sequences_as_resting(tmp_path, gap_um):
     product = load_product(gear_on_ribs(tmp_path, gap_um * 1e-6))
     # exact geometry sees the gap (check agrees it is not an interference)
-    assert check_assembly(product).interferences == ()
-    sp = plan_sequence(product)
+    assert check_assembly(product, ProductGeometry(product)).interferences == ()
+    sp = sequence_of(product)
     step = sp.best.steps[1]
     assert step.part == "gear"
     assert step.stability == "resting" and step.held_by == ("base",)
@@ -99,7 +117,7 @@ def test_check_cover_resting_on_housing_is_not_an_interference():
     """gearbox: the cover lies face on face on both wall tops; exact BVH contact gave a
     triangle-local depth and check reported a 10 nm "interference"."""
     product = load_product(PRODUCTS / "gearbox.yaml")
-    result = check_assembly(product)
+    result = check_assembly(product, ProductGeometry(product))
     assert not [i for i in result.interferences if {i.a, i.b} == {"cover", "housing"}]
     assert result.interferences == ()
     # and a cover sunk 50 um into the housing is still reported, with its depth
@@ -109,17 +127,16 @@ def test_check_cover_resting_on_housing_is_not_an_interference():
         dataclasses.replace(p, T_product_part=p.T_product_part - np.pad(
             np.array([[0.0], [0.0], [50e-6]]), ((0, 1), (3, 0))))
         if p.name == "cover" else p for p in product.parts))
-    hits = [i for i in check_assembly(sunk).interferences if {i.a, i.b} == {"cover", "housing"}]
+    hits = [i for i in check_assembly(sunk, ProductGeometry(sunk)).interferences if {i.a, i.b} == {"cover", "housing"}]
     assert hits and hits[0].depth_m == pytest.approx(50e-6, abs=1e-6)
 
 
 def test_part_resting_one_micrometre_above_ribs_plans(tmp_path):
     """The motion planner's model (convex, contact tolerance 20 um) agrees: the gear is
     placed onto the ribs along -z."""
-    from asmplan.planner.motion import plan_product
 
     product = load_product(gear_on_ribs(tmp_path, 1e-6))
-    plan = plan_product(product).plan
+    plan = planned(product).plan
     step = plan.steps[1]
     assert step.part == "gear" and step.kind == "place"
     assert np.allclose(step.insertion_direction, [0, 0, -1])
@@ -152,10 +169,9 @@ def test_flat_cover_gets_an_edge_grasp(geometry_cache):
 
 @pytest.fixture(scope="module")
 def beam_plan():
-    from asmplan.planner.motion import plan_product
 
     product = load_product(PRODUCTS / "beam_and_tenon.yaml")
-    return product, plan_product(product).plan
+    return product, planned(product).plan
 
 
 def test_posts_lying_flat_on_the_tray_are_grasped_and_inserted(beam_plan):
@@ -186,12 +202,11 @@ def test_m3_bolt_gets_a_grasp_with_the_short_pads_chosen_for_it():
     """A 3 mm head: 30 mm pads find no placement that clears the table at the start and the
     block at the assembled pose; the part's handling fits the gripper's 8 mm pads."""
     from asmplan.planner.errors import NoGraspError
-    from asmplan.planner.motion import plan_product
 
     product = load_product(PRODUCTS / "m3_bolt.yaml")
     assert product.gripper_for("bolt").finger_name == "short"
     assert np.allclose(product.gripper_for("bolt").finger_size_m, [6e-3, 4e-3, 8e-3])
-    plan = plan_product(product).plan
+    plan = planned(product).plan
     step = plan.steps[1]
     assert step.grasp.width_m == pytest.approx(5.5e-3, abs=1e-4)  # across the head
     # the pads' centre lies on the head (z 20..23 mm at the assembled pose)
@@ -204,7 +219,7 @@ def test_m3_bolt_gets_a_grasp_with_the_short_pads_chosen_for_it():
     default = dataclasses.replace(product, parts=(product.part("bracket"), dataclasses.replace(
         bolt, handling=dataclasses.replace(bolt.handling, finger=None))))
     with pytest.raises(NoGraspError, match="no feasible grasp"):
-        plan_product(default)
+        planned(default)
 
 
 def test_unknown_finger_is_a_located_input_error(tmp_path):
@@ -222,8 +237,9 @@ def test_unknown_finger_is_a_located_input_error(tmp_path):
 def test_tray_neighbours_20_mm_apart_are_not_hit_by_the_open_fingers(tmp_path):
     """The four dowels without start poses: the planner lays them out 20 mm apart; every
     chosen grasp keeps the open fingers clear of the neighbours, checked independently."""
-    from asmplan.planner.motion import GRIPPER_SPAN, MotionPlanner, Scene, initial_layout
+    from asmplan.planner.layout import initial_layout
     from asmplan.planner.plan import PlannerSettings
+    from asmplan.planner.scene import GRIPPER_SPAN, Scene
 
     text = (PRODUCTS / "gearbox.yaml").read_text()
     # the dowels' start lines (the only ones at y = 240 mm) removed
@@ -236,7 +252,7 @@ def test_tray_neighbours_20_mm_apart_are_not_hit_by_the_open_fingers(tmp_path):
                for k in range(1, 5))
     order = ["housing", "dowel_1", "dowel_2", "dowel_3", "dowel_4"]
     settings = PlannerSettings()
-    planner = MotionPlanner(product, settings)
+    planner = motion_planner(product, settings)
     starts, _ = initial_layout(product, planner.parts)
     ys = sorted(starts[f"dowel_{k}"][1, 3] for k in range(1, 5))
     assert np.allclose(np.diff(ys), 26e-3, atol=1e-5)  # 6 mm dowels in a row, 20 mm apart
@@ -271,10 +287,10 @@ def test_gear_unit_orders_the_gripper_cannot_do_rank_below_the_others_with_their
     from asmplan.planner.sequence import SequenceSettings
 
     product = load_product(EXAMPLES / "gear_unit.yaml")
-    blind = plan_sequence(product, settings=SequenceSettings(top_k=8, gripper_access=False))
+    blind = sequence_of(product, settings=SequenceSettings(top_k=8, gripper_access=False))
     order0 = blind.best.order
     assert order0.index("cover") < order0.index("collar")  # the old, unplannable first choice
-    sp = plan_sequence(product, settings=dataclasses.replace(SequenceSettings(), top_k=8))
+    sp = sequence_of(product, settings=dataclasses.replace(SequenceSettings(), top_k=8))
     after = [s for s in sp.sequences if s.order.index("cover") < s.order.index("collar")]
     before = [s for s in sp.sequences if s.order.index("collar") < s.order.index("cover")]
     assert after and before
@@ -295,20 +311,19 @@ def test_identical_parts_collapse_to_one_order():
 
     product = load_product(PRODUCTS / "beam_and_tenon.yaml")
     assert identical_parts(product) == [("post_1", "post_2", "post_3")]
-    sp = plan_sequence(product)
+    sp = sequence_of(product)
     assert sp.feasible_count == 6
     assert len(sp.sequences) == 1
     gear = load_product(EXAMPLES / "gear_unit.yaml")
     assert identical_parts(gear) == [("post_1", "post_2")]
     keys = [tuple("post" if n.startswith("post_") else n for n in s.order)
-            for s in plan_sequence(gear).sequences]
+            for s in sequence_of(gear).sequences]
     assert len(keys) == len(set(keys))
 
 
 def test_gear_unit_plans_its_best_ranked_order():
-    from asmplan.planner.motion import plan_product
 
-    plan = plan_product(load_product(EXAMPLES / "gear_unit.yaml")).plan
+    plan = planned(load_product(EXAMPLES / "gear_unit.yaml")).plan
     assert "could not be planned" not in plan.sequence_note
     assert plan.sequence.index("collar") < plan.sequence.index("cover")
 
@@ -324,7 +339,7 @@ def test_necessary_order_without_an_edge_names_the_link():
     from asmplan.planner.sequence import SequenceSettings
 
     product = load_product(PRODUCTS / "gearbox.yaml")
-    sp = plan_sequence(product, settings=SequenceSettings(gripper_access=False))
+    sp = sequence_of(product, settings=SequenceSettings(gripper_access=False))
     assert ("dowel_1", "cover") in sp.necessary
     text = sp.explain("dowel_1", "cover")
     assert "every feasible sequence" not in text
@@ -346,10 +361,9 @@ def test_shaft_through_two_bores_starts_before_the_first_and_plans():
     must start before the FIRST mouth: 100 mm of travel plus the 15 mm approach. With the
     per-mate 20 mm the pre-insertion pose had the shaft through the left block and the
     gripper hit the frame on the way in."""
-    from asmplan.planner.motion import plan_product
 
     product = load_product(PRODUCTS / "two_bore_shaft.yaml")
-    step = plan_product(product).plan.steps[1]
+    step = planned(product).plan.steps[1]
     assert step.part == "shaft" and step.kind == "insert"
     assert step.insertion_length_m == pytest.approx(0.100, abs=1e-6)
     tip_pre = (step.T_world_pre_insertion @ np.array([0.0, 0.0, 0.065, 1.0]))[0]
@@ -398,7 +412,7 @@ precedence:""")
     path.write_text(text)
     product = load_product(path)
     assert capture_m(product, "gear") == pytest.approx(0.5e-3 + 14.5e-6, abs=1e-9)
-    sp = plan_sequence(product, settings=SequenceSettings(gripper_access=False))
+    sp = sequence_of(product, settings=SequenceSettings(gripper_access=False))
     gear = next(st for s in sp.sequences for st in s.steps
                 if st.part == "gear" and s.order.index("gear") < s.order.index("shaft"))
     assert gear.stability == "resting" and gear.held_by == ("base",)
@@ -413,13 +427,13 @@ def test_rule_saying_what_a_part_rests_on_is_accepted(tmp_path):
 
     settings = SequenceSettings(gripper_access=False)
     with pytest.raises(NoFeasibleSequenceError, match="nothing can hold it"):
-        plan_sequence(load_product(gear_on_ribs(tmp_path, 1e-3)), settings=settings)
+        sequence_of(load_product(gear_on_ribs(tmp_path, 1e-3)), settings=settings)
     text = gear_on_ribs(tmp_path, 1e-3).read_text().replace(
         "  base: base\n", "  base: base\n  rules:\n    - {before: base, after: gear, "
         "reason: \"the gear rests on the base's ribs until the shaft arrives\"}\n")
     path = tmp_path / "ruled.yaml"
     path.write_text(text)
-    sp = plan_sequence(load_product(path), settings=settings)
+    sp = sequence_of(load_product(path), settings=settings)
     step = sp.best.steps[1]
     assert step.part == "gear" and step.stability == "rule" and step.held_by == ("base",)
     assert sp.best.terms["stability_risk"] == 0
@@ -432,11 +446,10 @@ def test_spacer_dropped_into_its_slot_starts_its_straight_segment_above_the_slot
     solution' in every order). The segment now starts where the spacer is clear of
     everything by the position tolerance: above the wall top (z = 80 mm), its underside at
     39 mm when seated."""
-    from asmplan.planner.motion import MotionPlanner
     from asmplan.planner.plan import PlannerSettings
 
     product = load_product(PRODUCTS / "gearbox.yaml")
-    planner = MotionPlanner(product, PlannerSettings())
+    planner = motion_planner(product, PlannerSettings())
     for k, name in enumerate(["housing", "gear"]):
         planner.plan_step(k, name)
     step, _ = planner.plan_step(2, "spacer")
