@@ -85,25 +85,29 @@ def test_triangle_count_comes_from_the_header(tmp_path):
     assert count_triangles(path) == 7
 
 
+# "Fails fast" bounds below are CPU seconds of this process (time.process_time), not wall
+# time: the machines are shared, and a wall-clock bound failed under load (46 s for 21 s alone).
+
+
 @pytest.mark.slow
 def test_two_million_triangle_soup_fails_fast_with_count_and_limit(tmp_path):
     rng = np.random.default_rng(0)
     path = tmp_path / "huge.stl"
     _write_binary_stl(path, rng.random((2_000_000, 3, 3), dtype=np.float32))
-    t = time.perf_counter()
+    t = time.process_time()
     with pytest.raises(MeshFileError, match=r"2,000,000 triangles, over the limit of 200,000"):
         load_mesh_file(path, 1e-3)
-    assert time.perf_counter() - t < 30.0
+    assert time.process_time() - t < 30.0
 
 
 def test_hard_limit_refuses_before_reading(tmp_path):
     path = tmp_path / "huge.stl"
     _write_binary_stl(path, np.zeros((2_000_000, 3, 3), dtype=np.float32))
     settings = GeometrySettings(hard_max_triangles=1_000_000)
-    t = time.perf_counter()
+    t = time.process_time()
     with pytest.raises(MeshFileError, match=r"2,000,000 triangles, over the hard limit of 1,000,000"):
         load_mesh_file(path, 1e-3, settings)
-    assert time.perf_counter() - t < 1.0
+    assert time.process_time() - t < 1.0
 
 
 @pytest.mark.slow
@@ -111,9 +115,9 @@ def test_large_watertight_mesh_is_simplified_and_says_so(tmp_path):
     sphere = trimesh.creation.icosphere(subdivisions=7, radius=20.0)  # 327,680 triangles
     path = tmp_path / "sphere.stl"
     _write_binary_stl(path, sphere.vertices[sphere.faces].astype(np.float32))
-    t = time.perf_counter()
+    t = time.process_time()
     loaded = load_mesh_file(path, 1e-3)
-    elapsed = time.perf_counter() - t
+    elapsed = time.process_time() - t
     assert len(loaded.mesh.faces) <= 200_000
     assert loaded.mesh.is_watertight
     assert loaded.mesh.volume == pytest.approx(sphere.volume * 1e-9, rel=1e-3)
