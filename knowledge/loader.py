@@ -71,6 +71,9 @@ START = Map({"location": Field(Str(expected="a location name (tray, feeder, tabl
              "xyz": Field(Vec(3, "length"), required=True),
              "rpy": Field(Vec(3, "angle"), default=[0.0, 0.0, 0.0])}, name="a start pose")
 DIRECTION = Vec(3, nonzero=True)
+SIZE = Num("length", size=True)  # a part or feature dimension: 0.01 mm .. 10 m
+SIZE3 = Vec(3, item=SIZE)
+COLOR = Vec(3, item=Num(minimum=0.0, maximum=1.0))
 
 
 def _hole_depth_check(v: dict[str, Any], path: PathKey, ctx: Context) -> None:
@@ -82,8 +85,8 @@ HOLE = Map({
     "name": Field(Str(expected="a feature name"), required=True),
     "at": Field(Vec(3, "length"), required=True),
     "axis": Field(DIRECTION, default=[0.0, 0.0, 1.0]),
-    "diameter": Field(Num("length", positive=True), required=True),
-    "depth": Field(Num("length", positive=True)),
+    "diameter": Field(SIZE, required=True),
+    "depth": Field(SIZE),
     "through": Field(Bool(), default=False),
     "chamfer": Field(Num("length", nonnegative=True), default=0.0),
 }, name="a hole", check_fn=_hole_depth_check)
@@ -91,25 +94,25 @@ PIN = Map({
     "name": Field(Str(expected="a feature name"), required=True),
     "at": Field(Vec(3, "length"), required=True),
     "axis": Field(DIRECTION, default=[0.0, 0.0, 1.0]),
-    "diameter": Field(Num("length", positive=True), required=True),
-    "length": Field(Num("length", positive=True), required=True),
+    "diameter": Field(SIZE, required=True),
+    "length": Field(SIZE, required=True),
     "chamfer": Field(Num("length", nonnegative=True), default=0.0),
 }, name="a pin")
 CUTS = {"holes": Field(ListOf(HOLE), default=[]), "pins": Field(ListOf(PIN), default=[])}
 CHILD = Tagged("shape", {
-    "box": Map({"size": Field(Vec(3, "length", positive=True), required=True),
+    "box": Map({"size": Field(SIZE3, required=True),
                 "pose": Field(POSE, default=None)}),
-    "cylinder": Map({"diameter": Field(Num("length", positive=True), required=True),
-                     "length": Field(Num("length", positive=True), required=True),
+    "cylinder": Map({"diameter": Field(SIZE, required=True),
+                     "length": Field(SIZE, required=True),
                      "pose": Field(POSE, default=None)}),
-    "sphere": Map({"diameter": Field(Num("length", positive=True), required=True),
+    "sphere": Map({"diameter": Field(SIZE, required=True),
                    "pose": Field(POSE, default=None)}),
 })
 GEOMETRY = Tagged("type", {
-    "box": Map({"size": Field(Vec(3, "length", positive=True), required=True), **CUTS}),
-    "cylinder": Map({"diameter": Field(Num("length", positive=True), required=True),
-                     "length": Field(Num("length", positive=True), required=True), **CUTS}),
-    "sphere": Map({"diameter": Field(Num("length", positive=True), required=True)}),
+    "box": Map({"size": Field(SIZE3, required=True), **CUTS}),
+    "cylinder": Map({"diameter": Field(SIZE, required=True),
+                     "length": Field(SIZE, required=True), **CUTS}),
+    "sphere": Map({"diameter": Field(SIZE, required=True)}),
     "composite": Map({"children": Field(ListOf(CHILD, min_len=1), required=True), **CUTS}),
     "mesh": Map({"file": Field(Str(expected="a mesh file path (STL, OBJ, PLY or STEP)"), required=True),
                  "units": Field(Str(tuple(LENGTH_UNITS)), default=None)}),
@@ -119,9 +122,9 @@ FEATURE = Map({
     "type": Field(Str(("pin", "shaft", "hole", "bore")), required=True),
     "at": Field(Vec(3, "length"), required=True),
     "axis": Field(DIRECTION, required=True),
-    "diameter": Field(Num("length", positive=True), required=True),
-    "length": Field(Num("length", positive=True)),
-    "depth": Field(Num("length", positive=True)),
+    "diameter": Field(SIZE, required=True),
+    "length": Field(SIZE),
+    "depth": Field(SIZE),
     "through": Field(Bool(), default=False),
     "chamfer": Field(Num("length", nonnegative=True), default=0.0),
 }, name="a feature")
@@ -132,7 +135,7 @@ GRASP = Map({
 HANDLING = Map({
     "insertion_direction": Field(DIRECTION),
     "grasp": Field(GRASP),
-    "max_clamp_force": Field(Num(positive=True)),
+    "max_clamp_force": Field(Num("force", positive=True)),
     "max_speed": Field(Num("speed", positive=True)),
     "max_acceleration": Field(Num("acceleration", positive=True)),
     "finger": Field(Str(expected="the name of one of the gripper's fingers")),
@@ -143,7 +146,7 @@ PART = Map({
     "material": Field(Str(expected="a material name")),
     "mass": Field(Num("mass", positive=True)),
     "friction": Field(Num(nonnegative=True, maximum=10.0)),
-    "color": Field(Vec(3)),
+    "color": Field(COLOR),
     "geometry": Field(GEOMETRY, required=True),
     "pose": Field(POSE, required=True),
     "start": Field(START),
@@ -171,12 +174,12 @@ PRECEDENCE = Map({"base": Field(Str(expected="a part name")),
                   "rules": Field(ListOf(RULE), default=[]),
                   "groups": Field(ListOf(GROUP), default=[])}, name="precedence knowledge")
 PROCESS = Map({
-    "safety_factor": Field(Num(positive=True)),
+    "safety_factor": Field(Num(positive=True, maximum=100.0)),
     "max_speed": Field(Num("speed", positive=True)),
     "max_acceleration": Field(Num("acceleration", positive=True)),
     "insertion_speed": Field(Num("speed", positive=True)),
-    "max_insertion_force": Field(Num(positive=True)),
-    "insertion_resistance": Field(Num(nonnegative=True)),
+    "max_insertion_force": Field(Num("force", positive=True)),
+    "insertion_resistance": Field(Num("force", nonnegative=True)),
     "lift_height": Field(Num("length", positive=True)),
     "approach_distance": Field(Num("length", positive=True)),
     "position_tolerance": Field(Num("length", positive=True)),
@@ -188,8 +191,8 @@ GRIPPER = Map({
     "finger": Field(Map({"size": Field(Vec(3, "length", positive=True), required=True),
                          "friction": Field(Num(positive=True, maximum=10.0), required=True)},
                         name="finger"), required=True),
-    "max_force": Field(Num(positive=True), required=True),
-    "min_force": Field(Num(nonnegative=True), default=0.0),
+    "max_force": Field(Num("force", positive=True), required=True),
+    "min_force": Field(Num("force", nonnegative=True), default=0.0),
     "mass": Field(Num("mass", positive=True)),
     "fingers": Field(ListOf(Map({"name": Field(Str(expected="a finger name"), required=True),
                                  "size": Field(Vec(3, "length", positive=True), required=True),
@@ -210,9 +213,9 @@ RESOURCES = Map({
                         "reach": Field(Num("length", positive=True), required=True)},
                        name="a robot")),
 }, name="resources")
-MATERIAL = Map({"density": Field(Num(positive=True), required=True),
+MATERIAL = Map({"density": Field(Num("density", positive=True), required=True),
                 "friction": Field(Num(nonnegative=True, maximum=10.0), required=True),
-                "color": Field(Vec(3))}, name="a material")
+                "color": Field(COLOR)}, name="a material")
 UNITS = Map({"length": Field(Str(tuple(LENGTH_UNITS)), default="mm"),
              "mass": Field(Str(tuple(MASS_UNITS)), default="kg"),
              "angle": Field(Str(tuple(ANGLE_UNITS)), default="deg")}, name="units")
@@ -272,7 +275,9 @@ def _pose(v: dict[str, Any] | None) -> np.ndarray:
 
 
 def _unit(v: Any) -> np.ndarray:
+    """Unit vector along ``v`` (non-zero, finite), without overflow for huge components."""
     a = np.asarray(v, dtype=float)
+    a = a / np.max(np.abs(a))
     return a / np.linalg.norm(a)
 
 
@@ -302,6 +307,11 @@ class _Builder:
         self.ctx.scales = {"length": L, "mass": MASS_UNITS.get(units["mass"], 1.0),
                            "angle": ANGLE_UNITS.get(units["angle"], math.pi / 180), "speed": L,
                            "acceleration": L}
+        length_name = units["length"] if units["length"] in LENGTH_UNITS else "mm"
+        self.ctx.unit_names.update(
+            length=length_name, speed=f"{length_name}/s", acceleration=f"{length_name}/s^2",
+            mass=units["mass"] if units["mass"] in MASS_UNITS else "kg",
+            angle=units["angle"] if units["angle"] in ANGLE_UNITS else "deg")
         top, _ = DOCUMENT.check_partial(data, (), self.ctx)
         if top is INVALID:
             raise ProductError(self.ctx.issues)

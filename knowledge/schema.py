@@ -28,13 +28,31 @@ class _Invalid:
 INVALID: Any = _Invalid()
 
 
+MAX_MAGNITUDE_SI: dict[str | None, float] = {
+    "length": 10.0,          # m: a product, its cell and its moves fit in a 10 m cube
+    "mass": 1000.0,          # kg
+    "angle": 2 * math.pi,    # rad (360 deg)
+    "speed": 10.0,           # m/s
+    "acceleration": 1000.0,  # m/s^2 (about 100 g)
+    "force": 1e5,            # N
+    "density": 1e5,          # kg/m^3 (osmium is 22,590)
+    None: 1e6,               # any other number (directions, factors)
+}
+"""Largest magnitude of a value of each kind, in SI units (docs/product-format.md, "Limits")."""
+MIN_SIZE_M = 10e-6
+"""Smallest size of a part or feature (diameter, length, depth, box edge): 0.01 mm."""
+SI_UNIT_NAMES = {"length": "m", "mass": "kg", "angle": "rad", "speed": "m/s",
+                 "acceleration": "m/s^2", "force": "N", "density": "kg/m^3"}
+
+
 @dataclass
 class Context:
-    """Where errors go and which unit scales apply."""
+    """Where errors go, which unit scales apply and how the file names its units."""
 
     doc: Located
     scales: dict[str, float]
     issues: list[InputIssue] = field(default_factory=list)
+    unit_names: dict[str, str] = field(default_factory=lambda: dict(SI_UNIT_NAMES))
 
     def error(self, path: PathKey, message: str, *, key: bool = False) -> Any:
         self.issues.append(self.doc.issue(path, message, key=key))
@@ -48,7 +66,7 @@ def describe(value: Any) -> str:
     if isinstance(value, bool):
         return f"boolean {str(value).lower()}"
     if isinstance(value, (int, float)):
-        return f"number {value:g}"
+        return f"number {_num(value)}"
     if isinstance(value, str):
         return f'text "{value}"' if len(value) < 40 else f'text "{value[:37]}..."'
     if isinstance(value, list):
@@ -56,6 +74,14 @@ def describe(value: Any) -> str:
     if isinstance(value, dict):
         return "a mapping"
     return type(value).__name__
+
+
+def _num(value: float) -> str:
+    """``value`` formatted with ``:g``, also for integers too large for a float."""
+    try:
+        return f"{float(value):g}"
+    except OverflowError:
+        return f"an integer of {len(str(abs(int(value))))} digits"
 
 
 class Spec:
@@ -91,31 +117,59 @@ class Bool(Spec):
 
 @dataclass
 class Num(Spec):
-    """A real number; ``unit`` names a scale in the context (length, mass, angle, speed...)."""
+    """A real number; ``unit`` names a scale in the context (length, mass, angle, speed...).
+
+    Every number is finite and within :data:`MAX_MAGNITUDE_SI` of its kind; ``size`` (a
+    part or feature dimension) is also at least :data:`MIN_SIZE_M`. ``minimum`` and
+    ``maximum`` are in the file's units.
+    """
 
     unit: str | None = None
     positive: bool = False
     nonnegative: bool = False
     maximum: float | None = None
     integer: bool = False
+    minimum: float | None = None
+    size: bool = False
 
     def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             return ctx.error(path, f"expected {self._what()}, found {describe(value)}")
-        if not math.isfinite(value):
+        if isinstance(value, float) and not math.isfinite(value):
             return ctx.error(path, f"expected a finite number, found {value}")
         if self.integer and not isinstance(value, int):
-            return ctx.error(path, f"expected a whole number, found {value:g}")
-        if self.positive and value <= 0:
-            return ctx.error(path, f"expected a positive {self._noun()}, found {value:g}")
+            return ctx.error(path, f"expected a whole number, found {_num(value)}")
+        u = self._unit_name(ctx)
+        if (self.positive or self.size) and value <= 0:
+            return ctx.error(path, f"expected a positive {self._noun()}, found {_num(value)}{u}")
         if self.nonnegative and value < 0:
-            return ctx.error(path, f"expected a {self._noun()} >= 0, found {value:g}")
+            return ctx.error(path, f"expected {self._a_noun()} >= 0, found {_num(value)}{u}")
+        if self.minimum is not None and value < self.minimum:
+            return ctx.error(path, f"expected {self._a_noun()} >= {self.minimum:g}{u}, found "
+                             f"{_num(value)}{u}")
         if self.maximum is not None and value > self.maximum:
-            return ctx.error(path, f"expected a {self._noun()} <= {self.maximum:g}, found {value:g}")
-        return value * ctx.scales.get(self.unit, 1.0) if self.unit else value
+            return ctx.error(path, f"expected {self._a_noun()} <= {self.maximum:g}{u}, found "
+                             f"{_num(value)}{u}")
+        scale = ctx.scales.get(self.unit, 1.0) if self.unit else 1.0
+        limit = MAX_MAGNITUDE_SI.get(self.unit, MAX_MAGNITUDE_SI[None])
+        if abs(value) * scale > limit:
+            return ctx.error(path, f"expected {self._a_noun()} within +-{limit / scale:g}{u}, found "
+                             f"{_num(value)}{u}")
+        if self.size and value * scale < MIN_SIZE_M * (1 - 1e-9):
+            return ctx.error(path, f"expected {self._a_noun()} of at least {MIN_SIZE_M / scale:g}{u} "
+                             f"(0.01 mm), found {_num(value)}{u}")
+        return value * scale if self.unit else value
+
+    def _unit_name(self, ctx: Context) -> str:
+        name = ctx.unit_names.get(self.unit) if self.unit else None
+        return f" {name}" if name else ""
 
     def _noun(self) -> str:
         return self.unit or "number"
+
+    def _a_noun(self) -> str:
+        noun = self._noun()
+        return ("an " if noun[0] in "aeiou" else "a ") + noun
 
     def _what(self) -> str:
         return f"a number ({self.unit})" if self.unit else "a number"
@@ -129,11 +183,13 @@ class Vec(Spec):
     unit: str | None = None
     positive: bool = False
     nonzero: bool = False
+    item: Num | None = None
+    """The spec of each number (default: ``Num(unit, positive)``)."""
 
     def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
         if not isinstance(value, list) or len(value) != self.n:
             return ctx.error(path, f"expected a list of {self.n} numbers, found {describe(value)}")
-        item = Num(unit=self.unit, positive=self.positive)
+        item = self.item or Num(unit=self.unit, positive=self.positive)
         out = [item.check(v, (*path, i), ctx) for i, v in enumerate(value)]
         if any(v is INVALID for v in out):
             return INVALID

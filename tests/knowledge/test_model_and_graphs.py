@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from asmplan.cli import main
+from asmplan.knowledge.errors import ProductError
 from asmplan.knowledge.graphs import liaison_graph, precedence_graph
 from asmplan.knowledge.loader import load_product
 from asmplan.knowledge.yamlsource import parse_located
@@ -94,17 +95,22 @@ def test_dot_output_names_every_part(capsys) -> None:
 
 def test_explicit_clearance_and_length_units(tmp_path) -> None:
     text = example_path("peg_in_hole").read_text().replace("fit: H7/g6", "clearance: {min: 0.01, max: 0.03}")
-    text = text.replace("units: {length: mm, mass: g}", "units: {length: m, mass: kg}")
-    text = text.replace("size: [60, 60, 30]", "size: [0.06, 0.06, 0.03]")
+    text = text.replace("units: {length: mm, mass: g}", "units: {length: cm, mass: kg}")
     doc = parse_located(text, "p.yaml")
     assert doc.data["mates"][0]["clearance"] == {"min": 0.01, "max": 0.03}
     path = tmp_path / "p.yaml"
     path.write_text(text)
-    # in metres, the rest of the file (written in mm) is now absurd but valid; the mate is not:
-    # a 10 m pin in a 10 m hole with 1-3 cm clearance
+    # in centimetres the file (written in mm) is ten times larger but inside the limits: a
+    # 10 cm pin in a 10 cm hole with 0.1-0.3 mm clearance
     product = load_product(path)
     mate = product.mates[0]
-    assert (mate.clearance_min_m, mate.clearance_max_m) == (0.01, 0.03)
+    assert (mate.clearance_min_m, mate.clearance_max_m) == pytest.approx((1e-4, 3e-4), rel=1e-12)
+    assert product.part("block").geometry.primitives[0].size_m == pytest.approx((0.6, 0.6, 0.3))
+    # in metres it is 100 m wide: refused with the limit, in the file's unit
+    path.write_text(text.replace("length: cm", "length: m"))
+    with pytest.raises(ProductError, match=r"p.yaml:10:14: parts\[0\].geometry.size\[0\]: expected a "
+                       r"length within \+-10 m, found 60 m"):
+        load_product(path)
 
 
 @pytest.mark.parametrize("a", [(0, 0, 1), (1, 0, 0), (0, 1, 0), (1, 2, -3), (0, 0, -1)])

@@ -71,8 +71,8 @@ def edit(old: str, new: str, nth: int = 0) -> str:
 # (id, modified text, needle whose position the error must name (None: no position), key path,
 #  message regex)
 CASES = [
-    ("yaml-syntax", edit("size: [60, 60, 30]", "size: [60, 60, 30"), None, "",
-     r"YAML syntax error: expected ',' or '\]'"),
+    ("yaml-syntax", edit("size: [60, 60, 30]", "size: [60, 60, 30"), None, r"parts\[0\]\.geometry\.size\[3\]",
+     r"YAML syntax error: did not find expected ',' or '\]'"),
     ("unknown-top-key", BASE + "procss: {}\n", "procss", "procss",
      r'unknown key "procss"; did you mean "process"\?; expected one of: .*process'),
     ("unknown-part-key", edit("    material: steel\n    geometry: {type: cyl",
