@@ -15,6 +15,7 @@ import networkx as nx
 import numpy as np
 
 from . import iso286
+from .consistency import find_inconsistencies
 from .errors import InputIssue, ProductError, did_you_mean
 from .frames import make_T
 from .materials import Material, builtin_materials
@@ -253,13 +254,17 @@ DOCUMENT = Map({
 # ---------------------------------------------------------------------------------------------
 
 
-def load_product(path: Path | str, *, display_name: str | None = None) -> Product:
+def load_product(path: Path | str, *, display_name: str | None = None,
+                 consistency: bool = True) -> Product:
     """Read, validate and convert a product file.
 
     Parameters
     ----------
     path : path to the YAML file. Mesh files it names are resolved relative to its folder.
     display_name : how to name the file in messages (default: ``path`` as given).
+    consistency : also refuse contradictions between valid values (a pin off its hole's
+        axis, a hole outside its part...; :mod:`asmplan.knowledge.consistency`). Turn off
+        only to study such a product with the measuring checks of :mod:`asmplan.parts`.
 
     Raises
     ------
@@ -267,7 +272,7 @@ def load_product(path: Path | str, *, display_name: str | None = None) -> Produc
         With every problem found, each with file, line, column, key path, expected and found.
     """
     doc = load_located(path, display_name)
-    return build_product(doc, Path(path).resolve().parent)
+    return build_product(doc, Path(path).resolve().parent, consistency=consistency)
 
 
 def _pose(v: dict[str, Any] | None) -> np.ndarray:
@@ -282,10 +287,13 @@ def _unit(v: Any) -> np.ndarray:
 
 
 class _Builder:
-    def __init__(self, doc: Located, base_dir: Path):
+    def __init__(self, doc: Located, base_dir: Path, consistency: bool = True):
+        self.consistency = consistency
         self.doc = doc
         self.base_dir = base_dir
         self.ctx = Context(doc, {})
+        self.feature_paths: dict[tuple[str, str], PathKey] = {}
+        self.mate_paths: dict[str, PathKey] = {}
 
     # -- helpers ---------------------------------------------------------------------------
     def err(self, path: PathKey, message: str, *, key: bool = False) -> None:
@@ -349,11 +357,21 @@ class _Builder:
         if self.ctx.issues:
             raise ProductError(self.ctx.issues)
         assert resources is not None  # a missing resources section is an issue above
-        return Product(
+        product = Product(
             name=top["product"], source=Path(self.doc.file), parts=tuple(parts.values()),
             mates=tuple(mates), precedence=precedence, process=process, resources=resources,
             T_world_product=_pose(top.get("placement")), description=top.get("description") or "",
         )
+        if self.consistency:
+            for found in find_inconsistencies(product):
+                if found.subject[0] == "feature":
+                    where = self.feature_paths[(found.subject[1], found.subject[2])]
+                else:
+                    where = self.mate_paths[found.subject[1]]
+                self.err((*where, found.key) if found.key else where, found.message)
+            if self.ctx.issues:
+                raise ProductError(self.ctx.issues)
+        return product
 
     # -- parts -----------------------------------------------------------------------------
     def build_parts(self, raw_parts: list[Any], materials: dict[str, Material]) -> dict[str, Part]:
@@ -482,6 +500,7 @@ class _Builder:
                          f"(first defined on line {self.doc.where((*where[f.name], 'name'))[0]})")
                 return
             where[f.name] = fpath
+            self.feature_paths[(part, f.name)] = fpath
             features.append(f)
 
         for i, h in enumerate(geometry.holes):
@@ -593,6 +612,7 @@ class _Builder:
                 self.err((*path, "name"), f'duplicate mate name "{name}" (first on line {names[name]})')
                 continue
             names[name] = self.doc.where(path)[0]
+            self.mate_paths[name] = path
             given = [k for k in ("fit", "clearance", "interference") if v[k] is not None]
             if len(given) > 1:
                 self.err((*path, given[1]), f"expected one of fit, clearance or interference, "
@@ -720,9 +740,9 @@ def iso286_normal(designation: str) -> str:
     return designation
 
 
-def build_product(doc: Located, base_dir: Path) -> Product:
+def build_product(doc: Located, base_dir: Path, *, consistency: bool = True) -> Product:
     """Validate a parsed document and build the :class:`Product` (see :func:`load_product`)."""
-    return _Builder(doc, base_dir).run()
+    return _Builder(doc, base_dir, consistency).run()
 
 
 __all__ = ["FORMAT_VERSION", "InputIssue", "ProductError", "build_product", "load_product"]

@@ -23,11 +23,11 @@ resources:
 def make_product(tmp_path: Path):
     """``make_product(yaml_body)`` -> Product, for a body holding ``parts:`` (and ``mates:``)."""
 
-    def make(body: str, name: str = "p") -> Product:
+    def make(body: str, name: str = "p", *, consistency: bool = True) -> Product:
         text = f"asmplan: 1\nproduct: {name}\nunits: {{length: mm, mass: g}}\n" \
                f"{textwrap.dedent(body)}\n{RESOURCES}"
         path = tmp_path / f"{name}.yaml"
         path.write_text(text, encoding="utf-8")
-        return load_product(path)
+        return load_product(path, consistency=consistency)
 
     return make

@@ -49,7 +49,7 @@ def _variant(tmp_path: Path, old: str, new: str, name: str = "pinhole_station") 
     assert old in text
     path = tmp_path / f"{name}.yaml"
     path.write_text(text.replace(old, new, 1), encoding="utf-8")
-    return load_product(path)
+    return load_product(path, consistency=False)
 
 
 def test_tilted_and_offset_pins_are_findings_with_evidence(tmp_path):
@@ -82,7 +82,7 @@ def test_a_declared_bore_that_the_geometry_fills_is_an_error(make_product):
             geometry: {type: cylinder, diameter: 20, length: 10}
             features:
               - {name: bore, type: bore, at: [0, 0, 5], axis: [0, 0, 1], diameter: 8, through: true}
-    """)
+    """, consistency=False)  # the loader refuses it (knowledge/consistency.py)
     (f,) = ProductGeometry(p).feature_findings("bush")
     assert f.severity == "error"
     assert "expected material around bore" in f.message or "expected no material inside the bore" in f.message
@@ -114,6 +114,6 @@ def test_a_pin_declared_off_the_body_is_not_backed_by_material(make_product):
             geometry: {type: cylinder, diameter: 8, length: 20}
             features:
               - {name: foot, type: pin, at: [0, 0, -10], axis: [0, 0, -1], diameter: 8, length: 5}
-    """)
+    """, consistency=False)  # the loader refuses it (knowledge/consistency.py)
     (f,) = ProductGeometry(p).feature_findings("post")
     assert f.severity == "error" and "empty" in f.message

@@ -1,0 +1,240 @@
+"""Contradictions between the values of a product that each look valid alone.
+
+:func:`find_inconsistencies` runs when a product is read (``asmplan validate`` reports
+them, ``run``, ``plan`` and every other command refuse the product before any work). It
+answers analytically, from the primitives, what ``asmplan check`` later measures on the built
+solids (:mod:`asmplan.parts.features`), so that a product ``check`` would fail never reaches
+the planner:
+
+* every mate at the assembled pose: pin axis antiparallel to the hole axis within
+  :data:`AXIS_TOLERANCE_RAD`, pin root on the hole axis within :data:`COAXIAL_TOLERANCE_M`,
+  a pin no longer than its blind hole is deep (after its root's axial offset);
+* no two mates with the same pin and hole; no feature that two mates want at different
+  built sizes; a fit or clearance that leaves the pin (and hole) at least half its nominal
+  diameter (an ISO 286 deviation larger than the feature makes a negative radius);
+* on parts made of primitives (meshes are left to ``check``): a hole's mouth on the part's
+  surface, a wall around the hole (at least :data:`MIN_WALL_FRACTION` of a ring just
+  outside its radius over its depth is material: a hole outside its part, or a part
+  narrower than its hole, has none), no material inside a declared hole the geometry does
+  not cut, a pin's root on the part's body, and a stand-alone pin or shaft that is material
+  over its length.
+
+Distances to the primitives are exact signed distances (box, cylinder, sphere; their union
+is the minimum). Messages say what was expected and what was found; the loader points them
+at the feature or mate in the file.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import iso286
+from .model import Feature, Part, Primitive, Product
+
+AXIS_TOLERANCE_RAD = math.radians(0.1)
+COAXIAL_TOLERANCE_M = 10e-6
+SURFACE_TOLERANCE_M = 10e-6
+MIN_WALL_FRACTION = 0.5
+_RING_ANGLES = 24
+_RING_LEVELS = 6
+
+
+@dataclass(frozen=True)
+class Inconsistency:
+    """One contradiction, about a feature ``("feature", part, name)`` or a mate
+    ``("mate", name)``; ``key`` names the entry to point at (``"at"``, ``"fit"``...)."""
+
+    subject: tuple[str, ...]
+    key: str | None
+    message: str
+
+
+def _mm(v: float) -> str:
+    return f"{v * 1e3:.4g} mm"
+
+
+def signed_distance(primitives: tuple[Primitive, ...], points_m: np.ndarray) -> np.ndarray:
+    """Signed distance (m, negative inside) of points (n, 3) in the part frame to the union
+    of ``primitives``."""
+    d = np.full(len(points_m), np.inf)
+    for prim in primitives:
+        T = prim.T_part_shape
+        Q = (points_m - T[:3, 3]) @ T[:3, :3]
+        if prim.shape == "sphere":
+            sd = np.linalg.norm(Q, axis=1) - 0.5 * prim.diameter_m
+        else:
+            if prim.shape == "box":
+                q = np.abs(Q) - 0.5 * np.asarray(prim.size_m)
+            else:
+                q = np.stack([np.hypot(Q[:, 0], Q[:, 1]) - 0.5 * prim.diameter_m,
+                              np.abs(Q[:, 2]) - 0.5 * prim.length_m], axis=1)
+            sd = np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0)
+        d = np.minimum(d, sd)
+    return d
+
+
+def _basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(axis, helper)
+    u /= np.linalg.norm(u)
+    return u, np.cross(axis, u)
+
+
+def _ring(f: Feature, radius_m: float, depths_m: np.ndarray) -> np.ndarray:
+    """Points (levels, angles, 3) on a circle of ``radius_m`` about the feature axis at each
+    depth below the origin (along -axis)."""
+    u, v = _basis(f.axis)
+    t = np.linspace(0.0, 2 * math.pi, _RING_ANGLES, endpoint=False)
+    circle = radius_m * (np.cos(t)[:, None] * u + np.sin(t)[:, None] * v)
+    return f.origin_m + circle[None, :, :] - depths_m[:, None, None] * f.axis
+
+
+def _extent(primitives: tuple[Primitive, ...]) -> float:
+    out = 0.0
+    for p in primitives:
+        half = 0.5 * (np.linalg.norm(p.size_m) if p.shape == "box" else math.hypot(p.diameter_m, p.length_m))
+        out = max(out, float(np.linalg.norm(p.T_part_shape[:3, 3])) + half)
+    return out
+
+
+def part_inconsistencies(part: Part) -> list[Inconsistency]:
+    """Features against the primitives of one part (none for a mesh part)."""
+    g = part.geometry
+    if g.kind == "mesh" or not g.primitives:
+        return []
+    prims = g.primitives
+    cut = {h.feature for h in g.holes}
+    added = {p.feature for p in g.pins}
+    out: list[Inconsistency] = []
+    for f in part.features:
+        subject = ("feature", part.name, f.name)
+        r = 0.5 * f.diameter_m
+        if f.is_male:
+            if f.name in added:
+                d = float(signed_distance(prims, f.origin_m[None])[0])
+                if d > SURFACE_TOLERANCE_M:
+                    out.append(Inconsistency(subject, "at", f"expected the root of pin {f.ref} on the "
+                                             f"body of part {part.name}, found it {_mm(d)} away from it"))
+                continue
+            # a stand-alone pin or shaft: the part is material over the pin's length
+            s = np.linspace(0.0, max(f.length_m - f.chamfer_m, 0.0), 8)
+            P = np.concatenate([f.origin_m + s[:, None] * f.axis,
+                                _ring(f, 0.9 * r, -s).reshape(-1, 3)])
+            d = signed_distance(prims, P)
+            if d.max() > SURFACE_TOLERANCE_M:
+                out.append(Inconsistency(subject, "at", f"expected {f.kind} {f.ref} to be material of "
+                                         f"part {part.name} over its {_mm(f.length_m)} length, found "
+                                         f"points of it up to {_mm(float(d.max()))} outside the part"))
+            continue
+        mouth = float(signed_distance(prims, f.origin_m[None])[0])
+        if abs(mouth) > SURFACE_TOLERANCE_M + f.chamfer_m:
+            where = "outside" if mouth > 0 else "inside"
+            out.append(Inconsistency(subject, "at", f"expected the mouth of {f.kind} {f.ref} on the "
+                                     f"surface of part {part.name}, found it {_mm(abs(mouth))} {where} "
+                                     "the part"))
+            continue
+        depth = f.length_m if not f.through else 2.0 * _extent(prims)
+        depths = np.linspace(f.chamfer_m + 0.05 * min(depth, 2 * r), 0.95 * depth, _RING_LEVELS)
+        if f.name not in cut:
+            core = signed_distance(prims, f.origin_m - np.outer(depths[:-1] if f.through else depths, f.axis))
+            if core.min() < -SURFACE_TOLERANCE_M:
+                out.append(Inconsistency(subject, None, f"expected no material inside {f.kind} {f.ref} "
+                                         f"(part {part.name} has no hole cut there), found material "
+                                         f"up to {_mm(float(-core.min()))} deep along its axis"))
+                continue
+        wall = signed_distance(prims, _ring(f, 1.06 * r, depths).reshape(-1, 3)).reshape(len(depths), -1) <= 0
+        if f.through:
+            wall = wall[wall.any(axis=1)]
+        fraction = float(wall.mean()) if wall.size else 0.0
+        if fraction < MIN_WALL_FRACTION:
+            out.append(Inconsistency(subject, "diameter", f"expected part {part.name} to surround "
+                                     f"{f.kind} {f.ref} ({_mm(f.diameter_m)}) with a wall, found material "
+                                     f"in {fraction:.0%} of a ring just outside it (the part is narrower "
+                                     "than the hole, or the hole lies outside it)"))
+    return out
+
+
+def _built_diameters(product: Product, mate) -> tuple[float, float]:
+    """Built (mid-tolerance) pin and hole diameters of a mate, metres."""
+    pin = product.feature(mate.pin_part, mate.pin_feature)
+    hole = product.feature(mate.hole_part, mate.hole_feature)
+    if mate.fit:
+        f = iso286.fit(mate.fit, hole.diameter_m)
+        return (pin.diameter_m + 0.5 * (f.shaft.lower_m + f.shaft.upper_m),
+                hole.diameter_m + 0.5 * (f.hole.lower_m + f.hole.upper_m))
+    extra = mate.clearance_mean_m - (hole.diameter_m - pin.diameter_m)
+    return pin.diameter_m - 0.5 * extra, hole.diameter_m + 0.5 * extra
+
+
+def mate_inconsistencies(product: Product) -> list[Inconsistency]:
+    """Mates at the assembled pose and against each other (see the module docstring)."""
+    out: list[Inconsistency] = []
+    pairs: dict[tuple[str, str], str] = {}
+    built: dict[tuple[str, str], tuple[float, str]] = {}
+    for mate in product.mates:
+        subject = ("mate", mate.name)
+        pin = product.feature(mate.pin_part, mate.pin_feature)
+        hole = product.feature(mate.hole_part, mate.hole_feature)
+        pair = (pin.ref, hole.ref)
+        if pair in pairs:
+            out.append(Inconsistency(subject, None, f"expected one mate per pin and hole, found "
+                                     f"{pin.ref} in {hole.ref} already in mate {pairs[pair]}"))
+            continue
+        pairs[pair] = mate.name
+        d_pin, d_hole = _built_diameters(product, mate)
+        key = "fit" if mate.fit else ("interference" if mate.clearance_max_m < 0 and
+                                      mate.clearance_min_m == mate.clearance_max_m else "clearance")
+        bad = [(f, d) for f, d in ((pin, d_pin), (hole, d_hole)) if d < 0.5 * f.diameter_m]
+        if bad:
+            f, d = bad[0]
+            out.append(Inconsistency(subject, key, f"expected the {key} to leave {f.kind} {f.ref} at "
+                                     f"least half its nominal {_mm(f.diameter_m)}, found it built at "
+                                     f"{_mm(d)} (the deviation is as large as the feature)"))
+            continue
+        for f, d in ((pin, d_pin), (hole, d_hole)):
+            first = built.get((f.part, f.name))
+            if first is None:
+                built[(f.part, f.name)] = (d, mate.name)
+            elif abs(first[0] - d) > 1e-9:
+                out.append(Inconsistency(subject, key, f"expected {f.ref} built at one size, found mate "
+                                         f"{first[1]} asking for {_mm(first[0])} and this one for "
+                                         f"{_mm(d)}"))
+        T_wp = product.T_world_assembled(mate.pin_part)
+        T_wh = product.T_world_assembled(mate.hole_part)
+        a_p = T_wp[:3, :3] @ pin.axis
+        a_h = T_wh[:3, :3] @ hole.axis
+        root = T_wp[:3, :3] @ pin.origin_m + T_wp[:3, 3]
+        mouth = T_wh[:3, :3] @ hole.origin_m + T_wh[:3, 3]
+        angle = float(np.arccos(np.clip(-float(a_p @ a_h), -1.0, 1.0)))
+        v = root - mouth
+        axial = float(v @ a_h)
+        radial = float(np.linalg.norm(v - axial * a_h))
+        if angle > AXIS_TOLERANCE_RAD:
+            out.append(Inconsistency(subject, None, f"expected pin {pin.ref} antiparallel to hole "
+                                     f"{hole.ref} at the assembled poses (within 0.1 deg), found "
+                                     f"{math.degrees(angle):.3g} deg apart"))
+        if radial > COAXIAL_TOLERANCE_M:
+            out.append(Inconsistency(subject, None, f"expected the root of pin {pin.ref} on the axis of "
+                                     f"hole {hole.ref} at the assembled poses (within 0.01 mm), found "
+                                     f"it {_mm(radial)} off the axis"))
+        reach = pin.length_m - axial
+        if not hole.through and angle <= AXIS_TOLERANCE_RAD and reach > hole.length_m + 1e-6:
+            out.append(Inconsistency(subject, None, f"expected pin {pin.ref} ({_mm(pin.length_m)} "
+                                     f"engaged) to fit hole {hole.ref} ({_mm(hole.length_m)} deep), "
+                                     f"found it {_mm(reach - hole.length_m)} too long: it bottoms out"))
+    return out
+
+
+def find_inconsistencies(product: Product) -> list[Inconsistency]:
+    """Every contradiction in ``product`` (parts first, then mates)."""
+    out: list[Inconsistency] = []
+    for part in product.parts:
+        out += part_inconsistencies(part)
+    return out + mate_inconsistencies(product)
+
+
+__all__ = ["Inconsistency", "find_inconsistencies", "mate_inconsistencies", "part_inconsistencies",
+           "signed_distance"]
