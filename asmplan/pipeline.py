@@ -12,6 +12,7 @@ result (``failure``, ``results.failed_steps``), not an exception; only bad input
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -77,7 +78,7 @@ class RunResult:
     @property
     def failure_evidence(self) -> dict[str, Any]:
         """The planning failure's evidence as JSON-safe data ({} when a plan exists)."""
-        return {} if self.error is None else self.error.evidence()
+        return {} if self.error is None else finite_json(self.error.evidence())
 
     @property
     def success(self) -> bool:
@@ -89,6 +90,18 @@ class RunResult:
     @property
     def exit_code(self) -> int:
         return 0 if self.success else 1
+
+
+def finite_json(value: Any) -> Any:
+    """``value`` with every non-finite float (nan, inf) replaced by None: JSON has neither,
+    and asmplan writes strict JSON."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: finite_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [finite_json(v) for v in value]
+    return value
 
 
 def run_product(product: Product | str | Path, settings: RunSettings | None = None, *,
@@ -152,6 +165,11 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
             result.warnings.extend(result.results.warnings)
             # each step's own warnings stay with the step (results.json, the report's step
             # section); the run-level list holds the plan's notes and the unresolved fits
+    except BaseException:  # Ctrl-C or a crash: no step goes on simulating after we return
+        if pipe is not None:
+            pipe.close(now=True)
+            pipe = None
+        raise
     finally:
         if pipe is not None:
             pipe.close()

@@ -7,6 +7,8 @@ Every error derives from :class:`PlanningError` and offers ``evidence()``, a JSO
 
 from __future__ import annotations
 
+import math
+
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -198,7 +200,9 @@ class GripInfeasibleError(PlanningError):
             + f") but the {limit_source} is {self.limit_N:.2f} N", step, part)
 
     def evidence(self) -> dict[str, Any]:
-        return {**super().evidence(), "required_N": self.required_N, "limit_N": self.limit_N,
+        # no friction (mu = 0) needs an unbounded force: JSON has no infinity, so null
+        required = self.required_N if math.isfinite(self.required_N) else None
+        return {**super().evidence(), "required_N": required, "limit_N": self.limit_N,
                 "limit_source": self.limit_source, "mass_kg": self.mass_kg, "mu": self.mu,
                 "acceleration_m_s2": self.acceleration_m_s2,
                 "safety_factor": self.safety_factor}

@@ -33,6 +33,7 @@ carried 200 mm along that axis drifted 10 mm off the TCP
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import time
@@ -259,6 +260,15 @@ def _die_with_parent(parent_pid: int) -> None:
         os._exit(1)
 
 
+def _terminate(pool: ProcessPoolExecutor) -> None:
+    """Stop ``pool`` now: pending steps cancelled, running workers terminated (on Ctrl-C, so
+    that no step runs on after the command has ended)."""
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        with contextlib.suppress(Exception):
+            process.terminate()
+    pool.shutdown(wait=True, cancel_futures=True)
+
+
 def _worker_pool(workers: int) -> ProcessPoolExecutor:
     """A pool of ``workers`` forked simulator processes that die with this process."""
     return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"),
@@ -310,14 +320,18 @@ def _simulate_parallel(job: _Job, todo: list[int], workers: int,
     _JOB = job
     try:
         with _worker_pool(workers) as pool:
-            futures = {k: pool.submit(_simulate_forked, k) for k in order}
-            for n, k in enumerate(todo):
-                try:
-                    done[k] = futures[k].result() if k in futures else job.step(k)
-                except BrokenProcessPool:
-                    break
-                if progress is not None:
-                    progress(n, len(todo), plan.steps[k].part, "done")
+            try:
+                futures = {k: pool.submit(_simulate_forked, k) for k in order}
+                for n, k in enumerate(todo):
+                    try:
+                        done[k] = futures[k].result() if k in futures else job.step(k)
+                    except BrokenProcessPool:
+                        break
+                    if progress is not None:
+                        progress(n, len(todo), plan.steps[k].part, "done")
+            except KeyboardInterrupt:
+                _terminate(pool)
+                raise
     finally:
         _JOB = None
     _retry_alone(job, todo, done, progress)
@@ -429,10 +443,12 @@ class PipelinedSimulation:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def close(self) -> None:
-        """Stop the workers (pending steps are cancelled)."""
+    def close(self, *, now: bool = False) -> None:
+        """Stop the workers (pending steps are cancelled; with ``now``, running ones too)."""
         global _JOB
         if self._pool is not None:
+            if now:
+                _terminate(self._pool)
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
             _JOB = None
