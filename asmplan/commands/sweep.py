@@ -39,7 +39,25 @@ def _vary(text: str) -> tuple[str, ...]:
     if bad or not items:
         raise argparse.ArgumentTypeError(
             f"expected a comma-separated subset of {','.join(FACTORS)}, found \"{text}\"")
+    twice = sorted({s for s in items if items.count(s) > 1})
+    if twice:
+        raise argparse.ArgumentTypeError(
+            f"expected each factor once, found {', '.join(twice)} more than once in \"{text}\"")
     return items
+
+
+MAX_SAMPLES = 100_000
+"""Largest ``--samples``: every sample is kept in memory and in sweep.json (about 1 kB each)
+and simulates every step; a larger study is several sweeps with different ``--seed``."""
+
+
+def _samples(text: str) -> int:
+    n = positive_int(text)
+    if n > MAX_SAMPLES:
+        raise argparse.ArgumentTypeError(
+            f"expected at most {MAX_SAMPLES:,} samples (every sample simulates every step and is "
+            f"kept in sweep.json; run several sweeps with different --seed), found {n:,}")
+    return n
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -56,8 +74,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "or on a Dask cluster with --scheduler. Re-running the same command "
                     "resumes from the journal in OUTDIR.")
     p.add_argument("product", help="product YAML file")
-    p.add_argument("--samples", type=positive_int, required=True, metavar="N",
-                   help="number of samples")
+    p.add_argument("--samples", type=_samples, required=True, metavar="N",
+                   help=f"number of samples (1 to {MAX_SAMPLES:,})")
     p.add_argument("--vary", type=_vary, default=FACTORS, metavar="F,...",
                    help=f"factors to vary, among {','.join(FACTORS)} (default all)")
     p.add_argument("--seed", type=nonnegative_int, default=0, help="sampling seed (default 0)")
