@@ -77,10 +77,10 @@ def signed_distance(primitives: tuple[Primitive, ...], points_m: np.ndarray) -> 
 
 
 def _basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(axis, helper)
-    u /= np.linalg.norm(u)
-    return u, np.cross(axis, u)
+    x, y, z = (float(c) for c in axis)
+    u = np.array([0.0, z, -y]) if abs(x) < 0.9 else np.array([-z, 0.0, x])  # axis x (1,0,0) or (0,1,0)
+    u /= math.sqrt(float(u @ u))
+    return u, np.array([y * u[2] - z * u[1], z * u[0] - x * u[2], x * u[1] - y * u[0]])
 
 
 def _ring(f: Feature, radius_m: float, depths_m: np.ndarray) -> np.ndarray:
@@ -157,10 +157,8 @@ def part_inconsistencies(part: Part) -> list[Inconsistency]:
     return out
 
 
-def _built_diameters(product: Product, mate) -> tuple[float, float]:
+def _built_diameters(pin: Feature, hole: Feature, mate) -> tuple[float, float]:
     """Built (mid-tolerance) pin and hole diameters of a mate, metres."""
-    pin = product.feature(mate.pin_part, mate.pin_feature)
-    hole = product.feature(mate.hole_part, mate.hole_feature)
     if mate.fit:
         f = iso286.fit(mate.fit, hole.diameter_m)
         return (pin.diameter_m + 0.5 * (f.shaft.lower_m + f.shaft.upper_m),
@@ -172,19 +170,20 @@ def _built_diameters(product: Product, mate) -> tuple[float, float]:
 def mate_inconsistencies(product: Product) -> list[Inconsistency]:
     """Mates at the assembled pose and against each other (see the module docstring)."""
     out: list[Inconsistency] = []
+    parts = {p.name: p for p in product.parts}  # Product.part() is a linear search
     pairs: dict[tuple[str, str], str] = {}
     built: dict[tuple[str, str], tuple[float, str]] = {}
     for mate in product.mates:
         subject = ("mate", mate.name)
-        pin = product.feature(mate.pin_part, mate.pin_feature)
-        hole = product.feature(mate.hole_part, mate.hole_feature)
+        pin = parts[mate.pin_part].feature(mate.pin_feature)
+        hole = parts[mate.hole_part].feature(mate.hole_feature)
         pair = (pin.ref, hole.ref)
         if pair in pairs:
             out.append(Inconsistency(subject, None, f"expected one mate per pin and hole, found "
                                      f"{pin.ref} in {hole.ref} already in mate {pairs[pair]}"))
             continue
         pairs[pair] = mate.name
-        d_pin, d_hole = _built_diameters(product, mate)
+        d_pin, d_hole = _built_diameters(pin, hole, mate)
         key = "fit" if mate.fit else ("interference" if mate.clearance_max_m < 0 and
                                       mate.clearance_min_m == mate.clearance_max_m else "clearance")
         bad = [(f, d) for f, d in ((pin, d_pin), (hole, d_hole)) if d < 0.5 * f.diameter_m]
@@ -202,8 +201,8 @@ def mate_inconsistencies(product: Product) -> list[Inconsistency]:
                 out.append(Inconsistency(subject, key, f"expected {f.ref} built at one size, found mate "
                                          f"{first[1]} asking for {_mm(first[0])} and this one for "
                                          f"{_mm(d)}"))
-        T_wp = product.T_world_assembled(mate.pin_part)
-        T_wh = product.T_world_assembled(mate.hole_part)
+        T_wp = product.T_world_product @ parts[mate.pin_part].T_product_part
+        T_wh = product.T_world_product @ parts[mate.hole_part].T_product_part
         a_p = T_wp[:3, :3] @ pin.axis
         a_h = T_wh[:3, :3] @ hole.axis
         root = T_wp[:3, :3] @ pin.origin_m + T_wp[:3, 3]

@@ -72,7 +72,7 @@ START = Map({"location": Field(Str(expected="a location name (tray, feeder, tabl
              "xyz": Field(Vec(3, "length"), required=True),
              "rpy": Field(Vec(3, "angle"), default=[0.0, 0.0, 0.0])}, name="a start pose")
 DIRECTION = Vec(3, nonzero=True)
-SIZE = Num("length", size=True)  # a part or feature dimension: 0.01 mm .. 10 m
+SIZE = Num("length", size=True)  # a part or feature dimension: 0.01 mm .. 100 m
 SIZE3 = Vec(3, item=SIZE)
 COLOR = Vec(3, item=Num(minimum=0.0, maximum=1.0))
 
@@ -336,6 +336,7 @@ class _Builder:
         # cross-references to it are not reported as unknown on top of the real error
         self.all_names = [p.get("name") for p in raw_parts if isinstance(p, dict)
                           and isinstance(p.get("name"), str)]
+        self.known_names = set(self.all_names)
         parts = self.build_parts(raw_parts, materials)
         gripper_etc = top.get("resources")
         process = self.build_process(top.get("process"))
@@ -583,7 +584,7 @@ class _Builder:
         return Resources(gripper, table, fixtures, robot)
 
     def check_part_ref(self, name: str, path: PathKey) -> bool:
-        if name in self.all_names:
+        if name in self.known_names:
             return True
         self.err(path, f'unknown part "{name}"{did_you_mean(name, self.all_names)}; known parts: '
                  f'{", ".join(sorted(self.all_names))}')

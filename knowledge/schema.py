@@ -29,7 +29,7 @@ INVALID: Any = _Invalid()
 
 
 MAX_MAGNITUDE_SI: dict[str | None, float] = {
-    "length": 10.0,          # m: a product, its cell and its moves fit in a 10 m cube
+    "length": 100.0,         # m: a product, its cell and its moves fit in a 100 m cube
     "mass": 1000.0,          # kg
     "angle": 2 * math.pi,    # rad (360 deg)
     "speed": 10.0,           # m/s

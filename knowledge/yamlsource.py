@@ -56,6 +56,9 @@ _COLLECTION_TAGS = {None, "!", _TAG + "map", _TAG + "seq"}
 _FLOAT_12 = re.compile(r"[-+]?[0-9]+[eE][-+]?[0-9]+\Z")
 # YAML 1.1 printable characters (tab, line feed, carriage return, and the printable ranges)
 _NOT_PRINTABLE = re.compile("[^\x09\x0a\x0d\x20-\x7e\x85\xa0-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+# decimal numbers read the same by YAML 1.1 and 1.2 (no leading zero: "010" is octal in 1.1);
+# group 1 is set for a float
+_DECIMAL = re.compile(r"[-+]?(?:0|[1-9][0-9]*)((?:\.[0-9]*)?(?:[eE][-+]?[0-9]+)?)\Z")
 _SURROGATE = re.compile("[\ud800-\udfff]")
 _MAX_INT_DIGITS = 400
 
@@ -339,6 +342,10 @@ class _Composer:
     def construct(self, event: yaml.ScalarEvent, path: PathKey) -> Any:
         text = event.value
         mark = event.start_mark
+        if event.tag is None and event.implicit[0]:  # plain: decimal numbers first (fast)
+            m = _DECIMAL.match(text)
+            if m is not None and len(text) <= 300:  # a float holds any 300-digit integer
+                return float(text) if m.group(1) else int(text)
         if event.tag in (None, "!"):
             tag = _RESOLVER.resolve(yaml.ScalarNode, text, event.implicit)
             if tag == _TAG + "str" and event.implicit[0] and _FLOAT_12.match(text):
@@ -361,7 +368,7 @@ class _Composer:
             return _NO_KEY
         kind = tag[len(_TAG):]
         node = yaml.ScalarNode(tag, text, mark, mark)
-        digits = sum(c.isdigit() for c in text)
+        digits = sum(c.isdigit() for c in text) if len(text) > 300 else len(text)
         try:
             if kind == "int" and digits > _MAX_INT_DIGITS:
                 raise OverflowError

@@ -8,7 +8,6 @@ Every error derives from :class:`PlanningError` and offers ``evidence()``, a JSO
 from __future__ import annotations
 
 import math
-
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
