@@ -814,6 +814,77 @@ def accuracy_plot_png(acc: AccuracyResult) -> bytes:
     return buf.getvalue()
 
 
+
+# ---------------------------------------------------------------------------------------------
+# reading large product files
+# ---------------------------------------------------------------------------------------------
+READ_PARTS = 2000
+READ_RUNS = 5
+
+
+@dataclass(frozen=True)
+class ReadTiming:
+    """Reading one generated product file, ``runs`` times: medians (s) of the YAML reader
+    alone (text to located values), of ``load_product`` (reader, schema, model and the
+    consistency checks; wall and CPU time: the machine is shared), and of PyYAML's pure-Python
+    ``compose`` (the former reader) for the ratio."""
+
+    n_parts: int
+    n_mates: int
+    size_bytes: int
+    runs: int
+    parse_s: float
+    load_s: float
+    load_min_s: float
+    load_max_s: float
+    load_cpu_s: float
+    pure_python_compose_s: float
+
+
+def run_read(n_parts: int = READ_PARTS, runs: int = READ_RUNS, seed: int = 0) -> ReadTiming:
+    """Time reading the generated ``n_parts`` product (see :class:`ReadTiming`)."""
+    import statistics
+    import tempfile
+
+    import yaml
+
+    from asmplan.knowledge.generator import generate_product, product_yaml
+    from asmplan.knowledge.loader import load_product
+    from asmplan.knowledge.yamlsource import parse_located
+
+    text = product_yaml(generate_product(n_parts, seed))
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"generated_{n_parts}.yaml"
+        path.write_text(text, encoding="utf-8")
+        parse, load, cpu = [], [], []
+        product = None
+        for _ in range(runs):
+            t0 = time.perf_counter()
+            parse_located(text, path.name)
+            t1 = time.perf_counter()
+            c1 = time.process_time()
+            product = load_product(path)
+            cpu.append(time.process_time() - c1)
+            load.append(time.perf_counter() - t1)
+            parse.append(t1 - t0)
+        t0 = time.perf_counter()
+        yaml.compose(text, Loader=yaml.SafeLoader)
+        pure = time.perf_counter() - t0
+    assert product is not None
+    return ReadTiming(n_parts, len(product.mates), len(text.encode()), runs, statistics.median(parse),
+                      statistics.median(load), min(load), max(load), statistics.median(cpu), pure)
+
+
+def format_read(r: ReadTiming) -> str:
+    return "\n".join([
+        "| product | file | YAML reader (median) | load_product (median, min-max) | load_product CPU "
+        "(median) | former reader: PyYAML pure-Python compose alone | ratio |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
+        f"| generated, {r.n_parts} parts, {r.n_mates} mates | {r.size_bytes / 1e6:.2f} MB | "
+        f"{r.parse_s:.2f} s | {r.load_s:.2f} s ({r.load_min_s:.2f}-{r.load_max_s:.2f} s, {r.runs} runs) | "
+        f"{r.load_cpu_s:.2f} s | {r.pure_python_compose_s:.2f} s | "
+        f"{r.pure_python_compose_s / r.load_s:.1f}x |", ""])
+
 @dataclass
 class BenchReport:
     """Everything one ``asmplan bench`` run measured (sections not run stay None)."""
@@ -826,6 +897,7 @@ class BenchReport:
     scaling: list[ScalingRow] | None = None
     culling: list[CullingResult] | None = None
     sweep: SweepResult | None = None
+    read: ReadTiming | None = None
     regressions: list[Regression] = field(default_factory=list)
     started: str = ""
     wall_s: float = 0.0
@@ -893,6 +965,13 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
                 "`bench.throughput.throughput()`: the same tasks through a local process pool with 1 and 2 "
                 "workers and a local 2-worker Dask cluster, after a warm-up (start-up column).", "",
                 format_sweep(rep.sweep)]
+    if rep.read is not None:
+        out += ["## Reading a large product file", "",
+                f"`bench.suite.run_read()`: `generate_product({rep.read.n_parts}, seed=0)` written to YAML "
+                "and read back: the YAML reader (libyaml events composed into located values, "
+                "`knowledge/yamlsource.py`) and the whole `load_product` (schema, model, consistency "
+                "checks); the last column is PyYAML's pure-Python `compose` of the same text, which "
+                "the reader used before.", "", format_read(rep.read)]
     out += ["## Accuracy bounds", "", "| figure | preset | bound | reason |", "| --- | --- | ---: | --- |"]
     out += [f"| {b.figure} | {b.preset} | {_fmt(b.limit, b.unit).lstrip('+')} | {b.reason} |" for b in BOUNDS]
     out += ["", "Regressions in this run: " + ("none" if not rep.regressions else

@@ -132,7 +132,25 @@ class Num(Spec):
     minimum: float | None = None
     size: bool = False
 
+    def __post_init__(self) -> None:
+        self._limit = MAX_MAGNITUDE_SI.get(self.unit, MAX_MAGNITUDE_SI[None])
+        self._low = max(0.0 if self.nonnegative else -math.inf, self.minimum if self.minimum is not None
+                        else -math.inf)
+        self._high = self.maximum if self.maximum is not None else math.inf
+
     def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        t = type(value)
+        if (t is float and math.isfinite(value)) or t is int:
+            # fast path for a valid number; anything else gets its message from _check
+            scale = ctx.scales.get(self.unit, 1.0) if self.unit else 1.0
+            si = value * scale
+            if ((not self.integer or t is int) and self._low <= value <= self._high
+                    and (value > 0 or not (self.positive or self.size)) and abs(si) <= self._limit
+                    and (not self.size or si >= MIN_SIZE_M * (1 - 1e-9))):
+                return si if self.unit else value
+        return self._check(value, path, ctx)
+
+    def _check(self, value: Any, path: PathKey, ctx: Context) -> Any:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             return ctx.error(path, f"expected {self._what()}, found {describe(value)}")
         if isinstance(value, float) and not math.isfinite(value):

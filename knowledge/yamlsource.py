@@ -157,7 +157,10 @@ class _Composer:
         self.count = 0  # values built, aliases counted with the size of what they repeat
         self.alias_values = 0
         self.documents = 0
-        self.done = False
+        self.handlers = {yaml.ScalarEvent: self.scalar, yaml.MappingStartEvent: self.start,
+                         yaml.SequenceStartEvent: self.start, yaml.MappingEndEvent: self.end,
+                         yaml.SequenceEndEvent: self.end, yaml.AliasEvent: self.alias,
+                         yaml.DocumentStartEvent: self.document}
 
     # -- errors ---------------------------------------------------------------------------
     def error(self, mark: Any, path: PathKey, message: str) -> None:
@@ -179,20 +182,16 @@ class _Composer:
 
     # -- events ---------------------------------------------------------------------------
     def feed(self, event: yaml.Event) -> None:
-        if isinstance(event, yaml.ScalarEvent):
-            self.scalar(event)
-        elif isinstance(event, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
-            self.start(event)
-        elif isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
-            self.end()
-        elif isinstance(event, yaml.AliasEvent):
-            self.alias(event)
-        elif isinstance(event, yaml.DocumentStartEvent):
-            self.documents += 1
-            if self.documents > 1:
-                self.error(event.start_mark, (), "expected one YAML document, found a second "
-                           "one (a line \"---\"); put each product in its own file")
-                raise _Stop
+        handler = self.handlers.get(type(event))
+        if handler is not None:
+            handler(event)
+
+    def document(self, event: yaml.DocumentStartEvent) -> None:
+        self.documents += 1
+        if self.documents > 1:
+            self.error(event.start_mark, (), "expected one YAML document, found a second "
+                       "one (a line \"---\"); put each product in its own file")
+            raise _Stop
 
     def target(self, mark: Any) -> tuple[PathKey, bool]:
         """Path of the value about to be built, and whether it is a mapping key."""
@@ -277,7 +276,7 @@ class _Composer:
         self.stack.append(_Frame(kind, {} if kind == "map" else [], path, event.anchor, self.count,
                                  mark=event.start_mark, is_key=is_key))
 
-    def end(self) -> None:
+    def end(self, event: yaml.Event | None = None) -> None:
         frame = self.stack.pop()
         mark = frame.mark
         if frame.kind == "map" and frame.merges:
@@ -441,9 +440,15 @@ def parse_located(text: str, name: str) -> Located:
     if issues:
         raise ProductError(issues)
     composer = _Composer(name)
+    loader = _Loader(text)
     try:
-        for event in yaml.parse(text, Loader=_Loader):
-            composer.feed(event)
+        next_event, handlers = loader.get_event, composer.handlers
+        event = next_event()
+        while event is not None:
+            handler = handlers.get(type(event))
+            if handler is not None:
+                handler(event)
+            event = next_event()
     except _Stop:
         pass
     except yaml.MarkedYAMLError as exc:
@@ -457,6 +462,8 @@ def parse_located(text: str, name: str) -> Located:
                                           f"found {exc.reason} (#x{exc.character:04x})"))
     except yaml.YAMLError as exc:  # pragma: no cover - libyaml reports marks for every error
         composer.issues.append(InputIssue(name, 0, 0, "", f"YAML error: {exc}"))
+    finally:
+        loader.dispose()
     if composer.issues:
         raise ProductError(composer.issues)
     if composer.documents == 0:

@@ -1,8 +1,8 @@
 """``asmplan bench [--quick] [--out FILE] [--sections ...]``: measure accuracy, cost and scaling.
 
 Full run (default): every section (accuracy at every preset, the seed workstation end to end
-at FAST, motion planning vs direct OMPL,
-scaling on generated products, scene culling, sweep throughput); prints the tables and writes
+at FAST, motion planning vs direct OMPL, scaling on generated products, scene culling, sweep
+throughput, reading a 2,000-part file); prints the tables and writes
 ``docs/benchmarks.md`` and ``docs/benchmarks.png`` (the accuracy-vs-cost plot beside it).
 ``--quick`` (CI): the accuracy scenarios at FAST and BALANCED only, and nothing is written
 unless ``--out`` is given.
@@ -31,7 +31,7 @@ from ..fileio import atomic_write_bytes, atomic_write_text
 CHECKOUT = Path(__file__).resolve().parents[2]
 """The source checkout this asmplan runs from (for a wheel: site-packages, without bench/)."""
 
-SECTIONS: tuple[str, ...] = ("accuracy", "seed", "planning", "scaling", "culling", "sweep")
+SECTIONS: tuple[str, ...] = ("accuracy", "seed", "planning", "scaling", "culling", "sweep", "read")
 SCALING_SIZES: tuple[int, ...] = (5, 10, 20, 50, 100)
 
 
@@ -160,6 +160,10 @@ def run(args: argparse.Namespace) -> int:
         log("sweep throughput: 1 and 2 local workers, Dask")
         rep.sweep = b.run_sweep_throughput()
         show("Sweep throughput", b.format_sweep(rep.sweep))
+    if "read" in sections:
+        log(f"read: a generated {b.READ_PARTS}-part product file, {b.READ_RUNS} runs")
+        rep.read = b.run_read()
+        show("Reading a large product file", b.format_read(rep.read))
     rep.wall_s = time.perf_counter() - t_start
     if out is not None:
         plot = None
