@@ -72,6 +72,7 @@ START = Map({"location": Field(Str(expected="a location name (tray, feeder, tabl
              "xyz": Field(Vec(3, "length"), required=True),
              "rpy": Field(Vec(3, "angle"), default=[0.0, 0.0, 0.0])}, name="a start pose")
 DIRECTION = Vec(3, nonzero=True)
+MAX_MOVE_M = 5.0  # lift height and approach distance: a robot's reach, not a building's
 SIZE = Num("length", size=True)  # a part or feature dimension: 0.01 mm .. 100 m
 SIZE3 = Vec(3, item=SIZE)
 COLOR = Vec(3, item=Num(minimum=0.0, maximum=1.0))
@@ -181,8 +182,8 @@ PROCESS = Map({
     "insertion_speed": Field(Num("speed", positive=True)),
     "max_insertion_force": Field(Num("force", positive=True)),
     "insertion_resistance": Field(Num("force", nonnegative=True)),
-    "lift_height": Field(Num("length", positive=True)),
-    "approach_distance": Field(Num("length", positive=True)),
+    "lift_height": Field(Num("length", positive=True, limit_si=MAX_MOVE_M)),
+    "approach_distance": Field(Num("length", positive=True, limit_si=MAX_MOVE_M)),
     "position_tolerance": Field(Num("length", positive=True)),
     "max_slip": Field(Num("length", positive=True)),
 }, name="process knowledge")

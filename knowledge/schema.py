@@ -131,9 +131,11 @@ class Num(Spec):
     integer: bool = False
     minimum: float | None = None
     size: bool = False
+    limit_si: float | None = None
+    """Largest magnitude in SI units (default: :data:`MAX_MAGNITUDE_SI` of the unit)."""
 
     def __post_init__(self) -> None:
-        self._limit = MAX_MAGNITUDE_SI.get(self.unit, MAX_MAGNITUDE_SI[None])
+        self._limit = self.limit_si or MAX_MAGNITUDE_SI.get(self.unit, MAX_MAGNITUDE_SI[None])
         self._low = max(0.0 if self.nonnegative else -math.inf, self.minimum if self.minimum is not None
                         else -math.inf)
         self._high = self.maximum if self.maximum is not None else math.inf
@@ -169,7 +171,7 @@ class Num(Spec):
             return ctx.error(path, f"expected {self._a_noun()} <= {self.maximum:g}{u}, found "
                              f"{_num(value)}{u}")
         scale = ctx.scales.get(self.unit, 1.0) if self.unit else 1.0
-        limit = MAX_MAGNITUDE_SI.get(self.unit, MAX_MAGNITUDE_SI[None])
+        limit = self._limit
         if abs(value) * scale > limit:
             return ctx.error(path, f"expected {self._a_noun()} within +-{limit / scale:g}{u}, found "
                              f"{_num(value)}{u}")
