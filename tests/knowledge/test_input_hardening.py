@@ -104,6 +104,11 @@ CASES = [
     ("pin-root-in-the-air", _edit(SEED, "{name: p1, at: [-40, 0, -10]", "{name: p1, at: [-40, 0, -14]"),
      "[-40, 0, -14]", r"parts\[1\]\.geometry\.pins\[0\]\.at",
      r"expected the root of pin part2\.p1 on the body of part part2, found it 4 mm away"),
+    ("iso-deviation-as-large-as-the-pin",
+     PEG.replace("diameter: 10, depth: 20, chamfer: 0.5", "diameter: 0.1, depth: 20, chamfer: 0")
+        .replace("diameter: 10, length: 20, chamfer: 0.5", "diameter: 0.1, length: 20, chamfer: 0")
+        .replace("fit: H7/g6", "fit: H11/c11"), "H11/c11", r"mates\[0\]\.fit",
+     r"expected the fit to leave pin peg\.tip at least half its nominal 0\.1 mm, found it built at 0\.01 mm"),
     ("clearance-larger-than-pin", _edit(PEG, "fit: H7/g6", "clearance: 25"), "25}",
      r"mates\[0\]\.clearance", r"expected the clearance to leave pin peg\.tip at least half its nominal 10 mm"),
 ]
