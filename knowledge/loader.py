@@ -310,7 +310,8 @@ class _Builder:
             {"length": "mm", "mass": "kg", "angle": "deg"}
         if units is INVALID:
             units = {"length": "mm", "mass": "kg", "angle": "deg"}
-            units.update({k: v for k, v in (data.get("units") or {}).items()
+            raw_units = data.get("units") if isinstance(data.get("units"), dict) else {}
+            units.update({k: v for k, v in raw_units.items()
                           if isinstance(v, str) and v in {**LENGTH_UNITS, **MASS_UNITS, **ANGLE_UNITS}})
         L = LENGTH_UNITS.get(units["length"], 1e-3)
         self.ctx.scales = {"length": L, "mass": MASS_UNITS.get(units["mass"], 1.0),

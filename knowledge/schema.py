@@ -291,6 +291,9 @@ class Tagged(Spec):
         if not isinstance(value, dict):
             return ctx.error(path, f"expected a mapping with a \"{self.tag}\", found {describe(value)}")
         kind = value.get(self.tag)
+        if kind is not None and not isinstance(kind, str):
+            return ctx.error((*path, self.tag), f"expected one of: {', '.join(self.variants)}, "
+                             f"found {describe(kind)}")
         if kind is None:
             return ctx.error(path, f'missing required key "{self.tag}" (one of: '
                              f'{", ".join(self.variants)})')

@@ -2,7 +2,8 @@
 
 Each mutant is one random edit of an example, of the kinds a hand-edited or generated file
 gets wrong: a number replaced by a hostile one (huge, negative, zero, non-finite, 4,400
-digits, a wrongly tagged scalar), a line deleted, duplicated or re-indented, a value
+digits, a wrongly tagged scalar), any value replaced by one of another type (a list, a
+mapping, null, an alias), a line deleted, duplicated or re-indented, a value
 replaced by another line's, a control character, a truncated file, an alias bomb or a
 recursive alias appended. For every mutant:
 
@@ -46,15 +47,22 @@ HOSTILE_NUMBERS = (
     '"\\ud800"', "~", "[]", "{}", "[1, 2]", "true", "abc", "1e", "0.000001", "100000", "3.14159",
 )
 NUMBER = re.compile(r"(?<![\w.])-?\d+(?:\.\d+)?(?![\w.])")
+VALUE = re.compile(r"(?<=: )[^\s\[\]{},#][^,\]}\n#]*")  # a scalar after "key: "
+HOSTILE_VALUES = ("[x]", "{a: 1}", "~", '""', "[]", "{}", "[[1]]", "*nope", "&a [*a]", "true", "- x")
 
 
 def _mutate(text: str, rng: np.random.Generator) -> str:
     lines = text.split("\n")
-    kind = int(rng.integers(0, 11))
+    kind = int(rng.integers(0, 13))
     numbers = list(NUMBER.finditer(text))
     if kind <= 3 and numbers:  # a number replaced by a hostile one (most common)
         m = numbers[int(rng.integers(len(numbers)))]
         new = HOSTILE_NUMBERS[int(rng.integers(len(HOSTILE_NUMBERS)))]
+        return text[: m.start()] + new + text[m.end():]
+    if kind >= 11:  # any value replaced by one of another type (a list, a mapping, null...)
+        values = list(VALUE.finditer(text))
+        m = values[int(rng.integers(len(values)))]
+        new = HOSTILE_VALUES[int(rng.integers(len(HOSTILE_VALUES)))]
         return text[: m.start()] + new + text[m.end():]
     i = int(rng.integers(len(lines)))
     if kind == 4:

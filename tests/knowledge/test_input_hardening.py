@@ -71,6 +71,10 @@ CASES = [
      r"YAML syntax error: found invalid Unicode character escape code"),
     ("control-character", _edit(PEG, "product: peg_in_hole", "product: peg\x07in_hole"), "\x07", None,
      r"expected printable text, found the control character U\+0007"),
+    ("geometry-type-a-list", _edit(PEG, "type: box", "type: [box]"), "[box]", r"parts\[0\]\.geometry\.type",
+     r"expected one of: box, cylinder, sphere, composite, mesh, found a list of 1"),
+    ("units-a-list", _edit(PEG, "units: {length: mm, mass: g}", "units: [mm]"), "[mm]", r"units",
+     r"expected units \(a mapping\), found a list of 1"),
     ("two-documents", PEG + "---\nasmplan: 1\n", "---", None, r"expected one YAML document, found a second one"),
     # sizes and distances outside the limits (docs/product-format.md, "Limits")
     ("pin-length-1e308", _edit(PEG, "length: 20,", "length: 1e308,"), "1e308",
