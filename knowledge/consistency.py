@@ -100,6 +100,27 @@ def _extent(primitives: tuple[Primitive, ...]) -> float:
     return out
 
 
+def _probe_points(f: Feature, prims: tuple[Primitive, ...], cut: bool, added: bool
+                  ) -> dict[str, np.ndarray]:
+    """The points (n, 3) in the part frame at which :func:`part_inconsistencies` judges one
+    feature, by role: ``origin``, ``body`` (a stand-alone pin), ``core`` and ``wall`` (a hole,
+    ``wall`` shaped (levels, angles, 3))."""
+    r = 0.5 * f.diameter_m
+    out = {"origin": f.origin_m[None]}
+    if f.is_male:
+        if not added:
+            s = np.linspace(0.0, max(f.length_m - f.chamfer_m, 0.0), 8)
+            out["body"] = np.concatenate([f.origin_m + s[:, None] * f.axis,
+                                          _ring(f, 0.9 * r, -s).reshape(-1, 3)])
+        return out
+    depth = f.length_m if not f.through else 2.0 * _extent(prims)
+    depths = np.linspace(f.chamfer_m + 0.05 * min(depth, 2 * r), 0.95 * depth, _RING_LEVELS)
+    if not cut:
+        out["core"] = f.origin_m - np.outer(depths[:-1] if f.through else depths, f.axis)
+    out["wall"] = _ring(f, 1.06 * r, depths)
+    return out
+
+
 def part_inconsistencies(part: Part) -> list[Inconsistency]:
     """Features against the primitives of one part (none for a mesh part)."""
     g = part.geometry
@@ -108,44 +129,48 @@ def part_inconsistencies(part: Part) -> list[Inconsistency]:
     prims = g.primitives
     cut = {h.feature for h in g.holes}
     added = {p.feature for p in g.pins}
+    probes = [_probe_points(f, prims, f.name in cut, f.name in added) for f in part.features]
+    # one signed-distance evaluation for every point of every feature of the part
+    flat = [(k, v.reshape(-1, 3)) for pr in probes for k, v in pr.items()]
+    if not flat:
+        return []
+    d_all = signed_distance(prims, np.concatenate([v for _, v in flat]))
+    distances: list[dict[str, np.ndarray]] = []
+    i = 0
+    for pr in probes:
+        distances.append({})
+        for k, v in pr.items():
+            n = v.size // 3
+            distances[-1][k] = d_all[i:i + n].reshape(v.shape[:-1])
+            i += n
     out: list[Inconsistency] = []
-    for f in part.features:
+    for f, d in zip(part.features, distances, strict=True):
         subject = ("feature", part.name, f.name)
-        r = 0.5 * f.diameter_m
+        origin = float(d["origin"][0])
         if f.is_male:
             if f.name in added:
-                d = float(signed_distance(prims, f.origin_m[None])[0])
-                if d > SURFACE_TOLERANCE_M:
+                if origin > SURFACE_TOLERANCE_M:
                     out.append(Inconsistency(subject, "at", f"expected the root of pin {f.ref} on the "
-                                             f"body of part {part.name}, found it {_mm(d)} away from it"))
-                continue
-            # a stand-alone pin or shaft: the part is material over the pin's length
-            s = np.linspace(0.0, max(f.length_m - f.chamfer_m, 0.0), 8)
-            P = np.concatenate([f.origin_m + s[:, None] * f.axis,
-                                _ring(f, 0.9 * r, -s).reshape(-1, 3)])
-            d = signed_distance(prims, P)
-            if d.max() > SURFACE_TOLERANCE_M:
+                                             f"body of part {part.name}, found it {_mm(origin)} away "
+                                             "from it"))
+            elif d["body"].max() > SURFACE_TOLERANCE_M:  # a stand-alone pin or shaft: material
                 out.append(Inconsistency(subject, "at", f"expected {f.kind} {f.ref} to be material of "
                                          f"part {part.name} over its {_mm(f.length_m)} length, found "
-                                         f"points of it up to {_mm(float(d.max()))} outside the part"))
+                                         f"points of it up to {_mm(float(d['body'].max()))} outside "
+                                         "the part"))
             continue
-        mouth = float(signed_distance(prims, f.origin_m[None])[0])
-        if abs(mouth) > SURFACE_TOLERANCE_M + f.chamfer_m:
-            where = "outside" if mouth > 0 else "inside"
+        if abs(origin) > SURFACE_TOLERANCE_M + f.chamfer_m:
+            where = "outside" if origin > 0 else "inside"
             out.append(Inconsistency(subject, "at", f"expected the mouth of {f.kind} {f.ref} on the "
-                                     f"surface of part {part.name}, found it {_mm(abs(mouth))} {where} "
+                                     f"surface of part {part.name}, found it {_mm(abs(origin))} {where} "
                                      "the part"))
             continue
-        depth = f.length_m if not f.through else 2.0 * _extent(prims)
-        depths = np.linspace(f.chamfer_m + 0.05 * min(depth, 2 * r), 0.95 * depth, _RING_LEVELS)
-        if f.name not in cut:
-            core = signed_distance(prims, f.origin_m - np.outer(depths[:-1] if f.through else depths, f.axis))
-            if core.min() < -SURFACE_TOLERANCE_M:
-                out.append(Inconsistency(subject, None, f"expected no material inside {f.kind} {f.ref} "
-                                         f"(part {part.name} has no hole cut there), found material "
-                                         f"up to {_mm(float(-core.min()))} deep along its axis"))
-                continue
-        wall = signed_distance(prims, _ring(f, 1.06 * r, depths).reshape(-1, 3)).reshape(len(depths), -1) <= 0
+        if "core" in d and d["core"].min() < -SURFACE_TOLERANCE_M:
+            out.append(Inconsistency(subject, None, f"expected no material inside {f.kind} {f.ref} "
+                                     f"(part {part.name} has no hole cut there), found material "
+                                     f"up to {_mm(float(-d['core'].min()))} deep along its axis"))
+            continue
+        wall = d["wall"] <= 0
         if f.through:
             wall = wall[wall.any(axis=1)]
         fraction = float(wall.mean()) if wall.size else 0.0
