@@ -245,13 +245,14 @@ class _Composer:
         path, is_key = self.target(event.start_mark)
         if event.anchor is not None:
             self.anchors[event.anchor] = None
-        value = self.construct(event, path)
+        # a key is the text as written (``1:`` is the key "1"): only a tagged one is checked
+        value = self.construct(event, path) if not is_key or event.tag is not None else event.value
         self.count += 1
         if is_key:
             top = self.stack[-1]
             if event.tag is None and event.implicit[0] and event.value == "<<":
                 top.key = _MERGE
-            else:  # a key is the text as written (``1:`` is the key "1")
+            else:
                 self.put_key(top, _NO_KEY if value is _NO_KEY else event.value, event.start_mark, path)
             if event.anchor is not None:
                 self.anchors[event.anchor] = (event.value, path, 1)
