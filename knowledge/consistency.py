@@ -95,7 +95,8 @@ def _ring(f: Feature, radius_m: float, depths_m: np.ndarray) -> np.ndarray:
 def _extent(primitives: tuple[Primitive, ...]) -> float:
     out = 0.0
     for p in primitives:
-        half = 0.5 * (np.linalg.norm(p.size_m) if p.shape == "box" else math.hypot(p.diameter_m, p.length_m))
+        span = np.linalg.norm(p.size_m) if p.shape == "box" else math.hypot(p.diameter_m, p.length_m)
+        half = 0.5 * float(span)
         out = max(out, float(np.linalg.norm(p.T_part_shape[:3, 3])) + half)
     return out
 

@@ -26,6 +26,7 @@ supported; the values they bring in keep the position where they are written.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -157,7 +158,8 @@ class _Composer:
         self.count = 0  # values built, aliases counted with the size of what they repeat
         self.alias_values = 0
         self.documents = 0
-        self.handlers = {yaml.ScalarEvent: self.scalar, yaml.MappingStartEvent: self.start,
+        self.handlers: dict[type, Callable[[Any], None]] = {
+                         yaml.ScalarEvent: self.scalar, yaml.MappingStartEvent: self.start,
                          yaml.SequenceStartEvent: self.start, yaml.MappingEndEvent: self.end,
                          yaml.SequenceEndEvent: self.end, yaml.AliasEvent: self.alias,
                          yaml.DocumentStartEvent: self.document}
@@ -367,7 +369,7 @@ class _Composer:
                        f"found the unsupported YAML tag {tag}")
             return _NO_KEY
         kind = tag[len(_TAG):]
-        node = yaml.ScalarNode(tag, text, mark, mark)
+        node = yaml.ScalarNode(tag, text, None, None)
         digits = sum(c.isdigit() for c in text) if len(text) > 300 else len(text)
         try:
             if kind == "int" and digits > _MAX_INT_DIGITS:
