@@ -147,6 +147,8 @@ class GripLoad:
         ``F_m = 2 m (g + a) d / (mu W)`` (the whole lever ``d`` taken as horizontal, the
         worst case), minus its value for a centred grasp, over the force limit: 0 for a grasp
         on the centre of mass, 1 when the moment alone uses the whole limit."""
+        if mu <= 0:  # no friction: no grip holds, whatever its lever; the clamp check says
+            return 0.0  # so with its reason ("needs inf N"), ranking has nothing to weigh
         load = self.mass_kg * (G_M_S2 + self.acceleration_m_s2)
         slide = load / (2.0 * mu)
         turn = 2.0 * load * lever_m / (mu * pad_width_m)

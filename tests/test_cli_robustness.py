@@ -76,3 +76,21 @@ def test_sweep_refuses_absurd_sample_counts_and_repeated_factors(capsys, tmp_pat
                  "-o", str(tmp_path / "s")]) == 2
     assert "expected each factor once, found clearance more than once" in capsys.readouterr().err
     assert not (tmp_path / "s").exists()
+
+
+def test_a_frictionless_peg_fails_with_its_reason_and_no_infinity_in_json(tmp_path: Path, capsys) -> None:
+    """``friction: 0`` on the peg: no friction grip can hold it (needs inf N): ``run`` says
+    so (exit 1) and writes strict JSON (the required force is null, never Infinity)."""
+    text = example_path("peg_in_hole").read_text(encoding="utf-8").replace(
+        "  - name: peg\n    material: steel\n", "  - name: peg\n    material: steel\n    friction: 0\n")
+    assert "friction: 0" in text
+    product = tmp_path / "frictionless.yaml"
+    product.write_text(text, encoding="utf-8")
+    out = tmp_path / "out"
+    code = main(["run", str(product), "-o", str(out), "--fidelity", "fast", "--no-report", "-j", "1"])
+    captured = capsys.readouterr()
+    assert code == 1, captured.err
+    assert "grip infeasible: needs inf N per finger" in captured.out
+    for f in out.glob("*.json"):
+        assert "Infinity" not in f.read_text(encoding="utf-8") and "NaN" not in f.read_text(encoding="utf-8")
+    assert '"required_N": null' in (out / "summary.json").read_text(encoding="utf-8")
