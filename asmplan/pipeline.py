@@ -201,7 +201,10 @@ def write_outputs(result: RunResult, outdir: str | Path | OutputFolder, *, repor
             result.results.write(stage / "results.json")
         summary = {"product": result.product.name, "success": result.success,
                    "failure": result.failure, "failure_evidence": result.failure_evidence,
-                   "warnings": result.warnings, "fidelity": result.fidelity.name}
+                   "warnings": result.warnings, "fidelity": result.fidelity.name,
+                   "cycle_time_s": None if result.plan is None else result.plan.cycle_time_s,
+                   "step_cycle_times_s": None if result.plan is None else
+                   {s.part: s.cycle_time_s for s in result.plan.steps}}
         atomic_write_json(stage / "summary.json", summary)
         if report:
             from .report.html import ReportInputs, write_report

@@ -313,6 +313,20 @@ class PlanningResult:
     text: str
 
 
+def run_arm(log: Callable[[str], None] | None = None) -> list[Any]:
+    """The arm section: IK per waypoint and planning per step with and without the arm."""
+    from .arm import bench_arm
+
+    return bench_arm(log=log)
+
+
+def format_arm(rows: Sequence[Any]) -> str:
+    """Markdown table of :func:`run_arm`."""
+    from .arm import format_arm as fmt
+
+    return fmt(rows)
+
+
 def run_planning(products: Sequence[str] | None = None, direct_budget_s: float = 2.0) -> PlanningResult:
     """Per-step motion-planning time and the ratio against direct OMPL insertion planning."""
     from .motion import bench
@@ -894,6 +908,7 @@ class BenchReport:
     accuracy: AccuracyResult | None = None
     seed: SeedRunTiming | None = None
     planning: PlanningResult | None = None
+    arm: list[Any] | None = None
     scaling: list[ScalingRow] | None = None
     culling: list[CullingResult] | None = None
     sweep: SweepResult | None = None
@@ -938,6 +953,17 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
                 "a 2 s budget; `>=` marks a lower bound (the baseline failed within its budget).", "",
                 format_planning(rep.planning), "<details><summary>per step</summary>", "", "```",
                 rep.planning.text.strip(), "```", "", "</details>", ""]
+    if rep.arm is not None:
+        from .arm import format_arm
+
+        out += ["## The arm: inverse kinematics and planning per step", "",
+                "`bench/arm.py` `bench_arm()`: IK of every distinct TCP pose of the "
+                "examples' step trajectories from the previous sample's solution (as planning "
+                "tracks a path) and the seeded all-branch IK (each grasp's first pose); planning "
+                "time per pick-and-insert step with the xArm 6 (IK along the whole trajectory, "
+                "arm collisions, joint-limited timing) and without the arm, 5 interleaved runs, "
+                "medians. Targets: IK <= 1 ms median, plan <= 50 ms per step median on the seed "
+                "workstation.", "", format_arm(rep.arm)]
     if rep.scaling is not None:
         out += ["## Scaling on generated products", "",
                 f"`asmplan.knowledge.generator.generate_product(n, seed=0, fit={SCALING_FIT_MM})` "

@@ -8,6 +8,7 @@ documented in ``docs/product-format.md``.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +44,7 @@ from .model import (
     Robot,
     Table,
 )
+from .robot import JointLimit, UrdfError, read_urdf_arm, resolve_model
 from .schema import (
     INVALID,
     Bool,
@@ -202,6 +204,35 @@ GRIPPER = Map({
                                                    required=True)},
                                 name="a finger")), default=[]),
 }, name="a gripper")
+JOINT_LIMITS = Map({"lower": Field(Num("angle")), "upper": Field(Num("angle")),
+                    "velocity": Field(Num("angle", positive=True)),
+                    "acceleration": Field(Num("angle", positive=True))},
+                   name="joint limits (lower, upper, velocity, acceleration)")
+
+
+class _JointTable(Map):
+    """Mapping of URDF joint name -> JOINT_LIMITS (names checked against the URDF later)."""
+
+    def __init__(self) -> None:
+        super().__init__({}, name="a table of joint limits")
+
+    def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        if not isinstance(value, dict):
+            return ctx.error(path, f"expected a table of joint limits (joint name: {{lower, "
+                             f"upper, velocity, acceleration}}), found {value!r}")
+        out = {str(n): JOINT_LIMITS.check(v, (*path, n), ctx) for n, v in value.items()}
+        return INVALID if any(v is INVALID for v in out.values()) else out
+
+
+ROBOT = Map({
+    "model": Field(Str(expected="a bundled arm name (xarm6) or a path to a URDF file"),
+                   required=True),
+    "base": Field(POSE, default=None),
+    "mounting": Field(POSE, default=None),
+    "flange": Field(Str(expected="a link name of the URDF")),
+    "reach": Field(Num("length", positive=True)),
+    "joints": Field(_JointTable(), default={}),
+}, name="a robot")
 RESOURCES = Map({
     "gripper": Field(GRIPPER, required=True),
     "table": Field(Map({"size": Field(Vec(3, "length", positive=True), required=True),
@@ -211,9 +242,7 @@ RESOURCES = Map({
                                   "holds": Field(Str(expected="a part name"), required=True),
                                   "kind": Field(Str(), default="vise")}, name="a fixture")),
                       default=[]),
-    "robot": Field(Map({"model": Field(Str(), required=True), "base": Field(POSE, default=None),
-                        "reach": Field(Num("length", positive=True), required=True)},
-                       name="a robot")),
+    "robot": Field(ROBOT),
 }, name="resources")
 MATERIAL = Map({"density": Field(Num("density", positive=True), required=True),
                 "friction": Field(Num(nonnegative=True, maximum=10.0), required=True),
@@ -274,6 +303,43 @@ def load_product(path: Path | str, *, display_name: str | None = None,
     """
     doc = load_located(path, display_name)
     return build_product(doc, Path(path).resolve().parent, consistency=consistency)
+
+
+def build_robot(r: dict[str, Any], base_dir: Path,
+                err: Callable[[PathKey, str], None]) -> Robot | None:
+    """The cell's arm from the checked ``resources.robot`` mapping: resolve and read the
+    URDF (:mod:`asmplan.knowledge.robot`), apply the joint-limit overrides. Problems go to
+    ``err`` with their key path; returns None then."""
+    where = ("resources", "robot")
+    try:
+        urdf = read_urdf_arm(resolve_model(r["model"], base_dir), r["flange"])
+    except UrdfError as exc:
+        err((*where, "flange" if r["flange"] and "flange" in str(exc) else "model"), str(exc))
+        return None
+    by_name = {j.name: j for j in urdf.joints}
+    joints = dict(by_name)
+    ok = True
+    for name, o in r["joints"].items():
+        if name not in by_name:
+            err((*where, "joints", name), f'expected a joint of the arm ({", ".join(by_name)}), '
+                f'found "{name}"{did_you_mean(name, by_name)}')
+            ok = False
+            continue
+        j = by_name[name]
+        lo = j.lower_rad if o["lower"] is None else o["lower"]
+        hi = j.upper_rad if o["upper"] is None else o["upper"]
+        if not lo < hi:
+            err((*where, "joints", name), f"expected lower < upper, found {math.degrees(lo):g} "
+                f">= {math.degrees(hi):g} deg")
+            ok = False
+            continue
+        joints[name] = JointLimit(name, lo, hi, o["velocity"] or j.velocity_rad_s,
+                                  o["acceleration"] or j.acceleration_rad_s2)
+    if not ok:
+        return None
+    return Robot(r["model"], _pose(r["base"]), r["reach"], urdf_path=urdf.path,
+                 T_flange_tcp=_pose(r["mounting"]), flange_link=urdf.flange_link,
+                 joints=tuple(joints[j.name] for j in urdf.joints))
 
 
 def _pose(v: dict[str, Any] | None) -> np.ndarray:
@@ -579,10 +645,7 @@ class _Builder:
             seen.setdefault(f["name"], i)
         table = Table(np.asarray(v["table"]["size"]), v["table"]["friction"])
         fixtures = tuple(Fixture(f["name"], f["holds"], f["kind"]) for f in v["fixtures"])
-        robot = None
-        if v["robot"]:
-            r = v["robot"]
-            robot = Robot(r["model"], _pose(r["base"]), r["reach"])
+        robot = build_robot(v["robot"], self.base_dir, self.err) if v["robot"] else None
         return Resources(gripper, table, fixtures, robot)
 
     def check_part_ref(self, name: str, path: PathKey) -> bool:

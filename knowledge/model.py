@@ -23,6 +23,7 @@ from typing import Literal
 import numpy as np
 
 from .materials import Material
+from .robot import JointLimit
 
 FeatureKind = Literal["pin", "shaft", "hole", "bore"]
 MALE_KINDS = ("pin", "shaft")
@@ -300,9 +301,35 @@ class Fixture:
 
 @dataclass(frozen=True, eq=False)
 class Robot:
+    """The cell's arm (see :mod:`asmplan.knowledge.robot`).
+
+    Parameters
+    ----------
+    model : str
+        As written in the product file (a bundled name or a URDF path).
+    T_world_base : (4, 4) float array
+        Pose of the URDF's root link in the world (table top centre, z up).
+    reach_m : float or None
+        The stated reach (distance from the shoulder to the flange); None: measured from
+        the URDF by the planner.
+    urdf_path : Path or None
+        The resolved URDF file (None only for hand-built products without an arm file).
+    T_flange_tcp : (4, 4) float array
+        The gripper's TCP in the flange frame (the mounting: adapter plate and gripper
+        length); TCP frame as in :mod:`asmplan.planner.trajectory` (z approach).
+    flange_link : str
+        The URDF link the gripper is mounted on.
+    joints : tuple of JointLimit
+        Position, velocity and acceleration limits, URDF values overridden by the file.
+    """
+
     model: str
     T_world_base: np.ndarray
-    reach_m: float
+    reach_m: float | None
+    urdf_path: Path | None = None
+    T_flange_tcp: np.ndarray = field(default_factory=lambda: np.eye(4))
+    flange_link: str = ""
+    joints: tuple[JointLimit, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)

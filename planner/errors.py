@@ -205,3 +205,109 @@ class GripInfeasibleError(PlanningError):
                 "limit_source": self.limit_source, "mass_kg": self.mass_kg, "mu": self.mu,
                 "acceleration_m_s2": self.acceleration_m_s2,
                 "safety_factor": self.safety_factor}
+
+
+class ArmError(PlanningError):
+    """The cell's arm cannot do a step: a pose out of reach, a joint beyond its limit, a
+    singularity on the path, or an arm link in collision. ``T_world_tcp`` is the TCP pose
+    where it fails, ``phase`` the trajectory phase ("approach", "lift", ...) or the named
+    key pose ("grasp pose", "pre-insertion pose", ...)."""
+
+    kind = "arm"
+
+    def __init__(self, message: str, step: int, part: str, phase: str,
+                 T_world_tcp: np.ndarray | None = None) -> None:
+        self.phase = phase
+        self.T_world_tcp = None if T_world_tcp is None else np.asarray(T_world_tcp, float)
+        super().__init__(f'step {step} (part "{part}"): {message}', step, part)
+
+    def evidence(self) -> dict[str, Any]:
+        return {**super().evidence(), "phase": self.phase,
+                "T_world_tcp": _pose_list(self.T_world_tcp)}
+
+
+class OutOfReachError(ArmError):
+    """A pose's flange lies farther from the arm's shoulder than its reach."""
+
+    kind = "out_of_reach"
+
+    def __init__(self, step: int, part: str, phase: str, distance_m: float, reach_m: float,
+                 T_world_tcp: np.ndarray | None = None) -> None:
+        self.distance_m = float(distance_m)
+        self.reach_m = float(reach_m)
+        super().__init__(f"{phase} of {part} is {distance_m * 1e3:.0f} mm from the arm's "
+                         f"shoulder, reach {reach_m * 1e3:.0f} mm", step, part, phase,
+                         T_world_tcp)
+
+    def evidence(self) -> dict[str, Any]:
+        return {**super().evidence(), "distance_m": self.distance_m, "reach_m": self.reach_m}
+
+
+class JointLimitError(ArmError):
+    """Every inverse-kinematics branch of a pose needs a joint beyond its limit.
+
+    ``joint`` names the joint (of the branch that violates least), ``value_rad`` the angle
+    it needs and ``lower_rad``/``upper_rad`` its limits."""
+
+    kind = "joint_limit"
+
+    def __init__(self, step: int, part: str, phase: str, joint: str, value_rad: float,
+                 lower_rad: float, upper_rad: float, T_world_tcp: np.ndarray | None = None,
+                 along_path: bool = False) -> None:
+        self.joint = joint
+        self.value_rad = float(value_rad)
+        self.lower_rad = float(lower_rad)
+        self.upper_rad = float(upper_rad)
+        self.along_path = along_path
+        limits = f"[{np.degrees(lower_rad):.1f}, {np.degrees(upper_rad):.1f}] deg"
+        if along_path:
+            msg = (f"{joint} reaches its limit during the {phase} of {part} "
+                   f"({np.degrees(value_rad):.1f} deg, limits {limits})")
+        else:
+            msg = (f"{phase} of {part} needs {joint} at {np.degrees(value_rad):.1f} deg, beyond "
+                   f"its limits {limits} (every inverse-kinematics branch)")
+        super().__init__(msg, step, part, phase, T_world_tcp)
+
+    def evidence(self) -> dict[str, Any]:
+        return {**super().evidence(), "joint": self.joint, "value_rad": self.value_rad,
+                "lower_rad": self.lower_rad, "upper_rad": self.upper_rad}
+
+
+class ArmPathError(ArmError):
+    """The arm cannot follow a Cartesian segment on any branch: the IK solution jumps
+    (a singularity or a branch change), the manipulability falls below its floor, or a
+    joint runs into its limit along the way. ``reason`` says which, per branch tried."""
+
+    kind = "arm_path"
+
+    def __init__(self, step: int, part: str, phase: str, reason: str,
+                 T_world_tcp: np.ndarray | None = None) -> None:
+        self.reason = reason
+        super().__init__(f"the arm cannot follow the {phase}: {reason}", step, part, phase,
+                         T_world_tcp)
+
+    def evidence(self) -> dict[str, Any]:
+        return {**super().evidence(), "reason": self.reason}
+
+
+class ArmCollisionError(ArmError):
+    """An arm link hits the cell, a part, the gripper or another link on the step's path."""
+
+    kind = "arm_collision"
+
+    def __init__(self, step: int, part: str, phase: str, pairs: Sequence[CollidingPair],
+                 q_rad: np.ndarray | None = None, T_world_tcp: np.ndarray | None = None,
+                 names: dict[str, str] | None = None) -> None:
+        self.pairs = tuple(pairs)
+        self.q_rad = None if q_rad is None else np.asarray(q_rad, float)
+        names = names or {}
+
+        def said(body: str) -> str:
+            return f"{names[body]} ({body})" if body in names else body
+
+        listed = "; ".join(f"{said(p.a)} hits {said(p.b)}" for p in self.pairs[:3])
+        super().__init__(f"during the {phase}: {listed}", step, part, phase, T_world_tcp)
+
+    def evidence(self) -> dict[str, Any]:
+        return {**super().evidence(), "pairs": [p.as_dict() for p in self.pairs],
+                "q_rad": None if self.q_rad is None else self.q_rad.round(9).tolist()}

@@ -51,6 +51,7 @@ from ..knowledge.frames import invert
 from ..knowledge.model import Product
 from .certify import PathCheck, carried_radius, certify_path
 from .errors import (
+    ArmError,
     CollidingPair,
     GripInfeasibleError,
     InsertionBlockedError,
@@ -86,6 +87,7 @@ from .timing import (
     StepMotion,
     clamp_force,
     motion_limits,
+    path_poses,
     time_step,
 )
 
@@ -152,6 +154,12 @@ class MotionPlanner:
         self.scene = Scene(product, self.parts, initial, settings.contact_tolerance_m)
         self.placed: list[str] = [n for n in product.part_names if product.is_fixtured(n)]
         self._check_layout()
+        self.arm = None
+        if product.resources.robot is not None and product.resources.robot.urdf_path is not None:
+            from .arm import ArmPlanner  # pinocchio only when the cell has an arm
+
+            self.arm = ArmPlanner(product.resources.robot, self.scene, settings.arm,
+                                  (GRIPPER_CLOSED, GRIPPER_OPEN))
 
     def place(self, part: str) -> None:
         """Record ``part`` as assembled (used to set up a partial assembly, e.g. by the
@@ -263,6 +271,9 @@ class MotionPlanner:
         first_path = next((f.error for f in failures if isinstance(f.error, NoPathError)), None)
         if first_path is not None:
             raise first_path
+        first_arm = next((f.error for f in failures if isinstance(f.error, ArmError)), None)
+        if first_arm is not None:
+            raise first_arm
         reasons = [f"grasp {k + 1}: {f.reason}" for k, f in enumerate(failures)]
         reasons += rejected.reasons()
         if rejected.examined == 0:
@@ -379,6 +390,13 @@ class MotionPlanner:
         G_lift = translated(G_grasp, _Z * lift)
         carried = [(part, T_pg), (GRIPPER_CLOSED, np.eye(4))]
         radius = self._radius(part, T_pg, g)
+        if self.arm is not None:  # the key poses in reach and within the joint limits
+            try:
+                for what, G in (("pick pose", G_grasp), ("lifted pose", G_lift),
+                                ("pre-insertion pose", G_pre), ("seated pose", G_final)):
+                    self.arm.check_pose(index, part, what, G)
+            except ArmError as exc:
+                raise _GraspFailed(str(exc), exc) from None
 
         # straight segments, certified like the planned path (conservative advancement)
         def straight(bodies: list[tuple[str, np.ndarray]], T0: np.ndarray, T1: np.ndarray,
@@ -472,7 +490,21 @@ class MotionPlanner:
                             lift=np.array([G_grasp, G_lift]), translate=path, lower=lower,
                             retreat=np.array([G_final, G_retreat]))
         traj = time_step(motion, limits, clamp.commanded_N, radius, settings.timing)
+        arm_motion = None
+        if self.arm is not None:  # IK, arm collisions and joint-limited timing of the step
+            try:
+                traj, arm_motion = self.arm.plan_step(
+                    index, part, traj, T_pg, obstacles, T_start, T_final, radius,
+                    limits.max_speed_m_s,
+                    (settings.planner, settings.time_budget_s, settings.seed + 101 * grasp_rank))
+            except ArmError as exc:
+                raise _GraspFailed(str(exc), exc) from None
+            if arm_motion.joint_space_translate:  # the TCP follows the arm's joint path
+                path = path_poses(traj, ["translate"])
         notes = []
+        if arm_motion is not None and arm_motion.joint_space_translate:
+            notes.append("the arm cannot follow the planned Cartesian transfer; it was planned "
+                         "in joint space (the gripper follows the arm's joint path)")
         if g.source != "hint" and product.part(part).handling.grasp is not None:
             notes.append("the knowledge grasp hint collided; an antipodal grasp is used")
         if insertion_sampled_m > 0:
@@ -486,7 +518,7 @@ class MotionPlanner:
                     grasp=g, clamp=clamp, trajectory=traj, path_T_world_gripper=path,
                     check_step_m=settings.recheck_step_m,
                     insertion_check_step_m=insertion_sampled_m,
-                    checked_poses=checked, notes=tuple(notes))
+                    checked_poses=checked, notes=tuple(notes), arm=arm_motion)
         return step, ompl_s, check_s, checked
 
     def _radius(self, part: str, T_pg: np.ndarray, g: Grasp) -> float:

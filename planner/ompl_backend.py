@@ -252,3 +252,93 @@ def plan_se3(
         poses[-1] = np.asarray(T_goal, dtype=float).copy()
     return OmplResult(solved=solved, status=str(status), poses=np.array(poses),
                       planning_time_s=elapsed, validity_checks=calls[0], planner=planner)
+
+
+@dataclass(frozen=True, eq=False)
+class JointPathResult:
+    """A joint-space query's outcome: ``q_rad`` (M, n) waypoints (at least the start)."""
+
+    solved: bool
+    status: str
+    q_rad: np.ndarray
+    planning_time_s: float
+    validity_checks: int
+
+
+def plan_joint(
+    is_valid: Callable[[np.ndarray], bool],
+    q_start: np.ndarray,
+    q_goal: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    *,
+    planner: str = "RRTConnect",
+    time_budget_s: float = 1.0,
+    seed: int = 0,
+    resolution_rad: float = 0.01,
+    try_direct: bool = True,
+) -> JointPathResult:
+    """Plan a path in joint space (a box ``lower`` .. ``upper``, rad) from ``q_start`` to
+    ``q_goal``; ``is_valid(q)`` must be deterministic. ``resolution_rad`` is the longest
+    joint-space segment OMPL checks only at its ends (the caller re-checks the path). Seeding
+    and simplification as :func:`plan_se3`."""
+    if planner not in PLANNERS:
+        raise ValueError(f"planner: expected one of {sorted(PLANNERS)}, found {planner!r}")
+    n = len(q_start)
+    level = ou.getLogLevel()
+    ou.setLogLevel(ou.LOG_NONE)
+    try:
+        ou.RNG.setSeed(int(seed) & 0x7FFFFFFF or 1)
+        space = ob.RealVectorStateSpace(n)
+        b = ob.RealVectorBounds(n)
+        for i in range(n):
+            b.setLow(i, float(lower[i]))
+            b.setHigh(i, float(upper[i]))
+        space.setBounds(b)
+        ss = og.SimpleSetup(space)
+        calls = [0]
+
+        def q_of(state) -> np.ndarray:
+            return np.array([state[i] for i in range(n)])
+
+        def checker(state) -> bool:
+            calls[0] += 1
+            return bool(is_valid(q_of(state)))
+
+        ss.setStateValidityChecker(checker)
+        si = ss.getSpaceInformation()
+        si.setStateValidityCheckingResolution(min(1.0, resolution_rad / space.getMaximumExtent()))
+        start = space.allocState()
+        goal = space.allocState()
+        for i in range(n):
+            start[i] = float(q_start[i])
+            goal[i] = float(q_goal[i])
+        ss.setStartAndGoalStates(start, goal)
+        ss.setPlanner(PLANNERS[planner](si))
+        t0 = time.perf_counter()
+        if try_direct:
+            si.setup()
+            if si.isValid(start) and si.checkMotion(start, goal):
+                return JointPathResult(True, "direct motion valid",
+                                       np.array([q_start, q_goal], dtype=float),
+                                       time.perf_counter() - t0, calls[0])
+        status = ss.solve(ob.timedPlannerTerminationCondition(float(time_budget_s)))
+        solved = bool(ss.haveExactSolutionPath())
+        qs: list[np.ndarray] = []
+        if ss.haveSolutionPath():
+            path = ss.getSolutionPath()
+            if solved:
+                ps = ss.getPathSimplifier()
+                ps.reduceVertices(path)
+                ps.collapseCloseVertices(path)
+                ps.reduceVertices(path)
+            qs = [q_of(s) for s in path.getStates()]
+        elapsed = time.perf_counter() - t0
+    finally:
+        ou.setLogLevel(level)
+    if not qs:
+        qs = [np.asarray(q_start, dtype=float)]
+    if solved:
+        qs[0] = np.asarray(q_start, dtype=float).copy()
+        qs[-1] = np.asarray(q_goal, dtype=float).copy()
+    return JointPathResult(solved, str(status), np.array(qs), elapsed, calls[0])

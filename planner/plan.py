@@ -50,6 +50,140 @@ def _pose(value: Any, name: str) -> np.ndarray:
 
 
 @dataclass(frozen=True)
+class ArmSettings:
+    """Settings of the arm's kinematics and checks (see :mod:`asmplan.planner.arm`).
+
+    Parameters
+    ----------
+    ik_tolerance_m, ik_tolerance_rad : float
+        Convergence of inverse kinematics: flange position (m) and orientation (rad) error.
+    ik_seeds : int
+        Seeds of the all-branches IK (8 structured: shoulder x elbow x wrist, the rest
+        seeded random).
+    seed : int
+        Seed of the random IK seeds and of the self-collision set-up.
+    max_joint_jump_rad : float
+        Largest joint change between two trajectory samples on one branch; more is a branch
+        change or a singularity.
+    joint_limit_margin_rad : float
+        A joint closer than this to its limit (0.01 rad = 0.57 deg) is "at its limit".
+    min_manipulability_ratio : float
+        Floor of the manipulability along a path, as a fraction of the arm's best.
+    check_step_m : float
+        Arm collision check: where links come closer than this to anything, states are
+        checked at this point travel.
+    """
+
+    ik_tolerance_m: float = 1e-6
+    ik_tolerance_rad: float = 1e-6
+    ik_seeds: int = 16
+    seed: int = 0
+    max_joint_jump_rad: float = 0.2
+    joint_limit_margin_rad: float = 0.01
+    min_manipulability_ratio: float = 0.01
+    check_step_m: float = 5e-4
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name in ("seed", "joint_limit_margin_rad"):
+                ok = isinstance(v, int | float) and v >= 0
+            else:
+                ok = isinstance(v, int | float) and math.isfinite(v) and v > 0
+            if not ok:
+                raise ValueError(f"ArmSettings.{f.name}: expected a number > 0 (>= 0 for seed "
+                                 f"and margin), found {v!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class ArmMotion:
+    """The arm's part of a step: joint angles at every trajectory sample and its margins.
+
+    Parameters
+    ----------
+    joint_names : tuple of str
+    q_rad : (N, 6) float array
+        Joint angles at the step trajectory's samples (its ``t_s``), rad.
+    branch : str
+        IK branch (shoulder/elbow/wrist) the step runs on.
+    min_manipulability_ratio : float
+        Smallest manipulability along the step as a fraction of the arm's best.
+    min_limit_margin_rad : float
+        Smallest distance of a joint to its limits along the step, rad; ``limit_margin_joint``
+        names the joint.
+    max_ik_error_m : float
+        Largest distance between FK(q) and the planned TCP position, m.
+    phase_time_scale : tuple of (phase, factor)
+        How much each phase of the Cartesian timing was slowed for the joint limits (1 = not).
+    transfer_s : float
+        The joint move from the previous step's last state to this step's first, s
+        (rest-to-rest per leg of ``transfer_q_rad``).
+    transfer_q_rad : (M, 6) float array
+        Waypoints of that move (the straight joint move when free, else OMPL's joint-space
+        path; certified free of collisions, gripper open); empty for the first step.
+    checked_states : int
+        Arm states checked for collision.
+    branches_found : int
+        IK branches of the step's first pose within the limits.
+    joint_space_translate : bool
+        True when the arm could not follow the planned Cartesian transfer (lifted to
+        pre-insertion pose) and OMPL planned it in joint space; the trajectory's translate
+        phase is then FK of that joint path.
+    """
+
+    joint_names: tuple[str, ...]
+    q_rad: np.ndarray
+    branch: str
+    min_manipulability_ratio: float
+    min_limit_margin_rad: float
+    limit_margin_joint: str
+    max_ik_error_m: float
+    phase_time_scale: tuple[tuple[str, float], ...]
+    transfer_s: float
+    checked_states: int
+    branches_found: int
+    joint_space_translate: bool = False
+    transfer_q_rad: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        q = np.array(self.q_rad, dtype=float)
+        if q.ndim != 2 or q.shape[1] != len(self.joint_names):
+            raise ValueError(f"arm q_rad: expected (N, {len(self.joint_names)}), found {q.shape}")
+        q.setflags(write=False)
+        object.__setattr__(self, "q_rad", q)
+        w = np.zeros((0, q.shape[1])) if self.transfer_q_rad is None else np.array(
+            self.transfer_q_rad, dtype=float).reshape(-1, q.shape[1])
+        w.setflags(write=False)
+        object.__setattr__(self, "transfer_q_rad", w)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"joint_names": list(self.joint_names), "q_rad": self.q_rad.round(9).tolist(),
+                "branch": self.branch,
+                "min_manipulability_ratio": float(self.min_manipulability_ratio),
+                "min_limit_margin_rad": float(self.min_limit_margin_rad),
+                "limit_margin_joint": self.limit_margin_joint,
+                "max_ik_error_m": float(self.max_ik_error_m),
+                "phase_time_scale": {n: float(k) for n, k in self.phase_time_scale},
+                "transfer_s": float(self.transfer_s), "checked_states": int(self.checked_states),
+                "branches_found": int(self.branches_found),
+                "joint_space_translate": bool(self.joint_space_translate),
+                "transfer_q_rad": self.transfer_q_rad.round(9).tolist()}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> ArmMotion:
+        return cls(joint_names=tuple(d["joint_names"]), q_rad=np.array(d["q_rad"], float),
+                   branch=d["branch"], min_manipulability_ratio=float(d["min_manipulability_ratio"]),
+                   min_limit_margin_rad=float(d["min_limit_margin_rad"]),
+                   limit_margin_joint=d["limit_margin_joint"],
+                   max_ik_error_m=float(d["max_ik_error_m"]),
+                   phase_time_scale=tuple((n, float(k)) for n, k in d["phase_time_scale"].items()),
+                   transfer_s=float(d["transfer_s"]), checked_states=int(d["checked_states"]),
+                   branches_found=int(d["branches_found"]),
+                   joint_space_translate=bool(d.get("joint_space_translate", False)),
+                   transfer_q_rad=np.array(d.get("transfer_q_rad", []), dtype=float))
+
+
+@dataclass(frozen=True)
 class PlannerSettings:
     """Every setting of grasp, motion and timing planning (SI units).
 
@@ -111,13 +245,14 @@ class PlannerSettings:
     replan_attempts: int = 3
     collision_level: str = "convex"
     timing: TimingSettings = field(default_factory=TimingSettings)
+    arm: ArmSettings = field(default_factory=ArmSettings)
 
     def __post_init__(self) -> None:
         if self.planner not in PLANNERS:
             raise ValueError(f"planner: expected one of {sorted(PLANNERS)}, found {self.planner!r}")
         for f in fields(self):
             v = getattr(self, f.name)
-            if f.name in ("planner", "timing", "collision_level"):
+            if f.name in ("planner", "timing", "collision_level", "arm"):
                 continue
             if f.name in ("seed", "replan_attempts"):
                 if not (isinstance(v, int) and v >= 0):
@@ -140,6 +275,7 @@ class PlannerSettings:
     def from_dict(cls, data: dict[str, Any]) -> PlannerSettings:
         d = dict(data)
         d["timing"] = TimingSettings(**d.get("timing", {}))
+        d["arm"] = ArmSettings(**d.get("arm", {}))
         return cls(**d)
 
 
@@ -242,6 +378,7 @@ class Step:
     insertion_check_step_m: float = 0.0
     checked_poses: int = 0
     notes: tuple[str, ...] = ()
+    arm: ArmMotion | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in ("fixture", "insert", "place"):
@@ -264,6 +401,18 @@ class Step:
         if self.kind != "fixture" and (self.grasp is None or self.trajectory is None):
             raise ValueError(f"step {self.index} ({self.part}): a {self.kind} step needs a "
                              "grasp and a trajectory, found none")
+        if self.arm is not None and (self.trajectory is None
+                                     or len(self.arm.q_rad) != len(self.trajectory.t_s)):
+            raise ValueError(f"step {self.index} ({self.part}): expected the arm's joint angles "
+                             "at every trajectory sample")
+
+    @property
+    def cycle_time_s(self) -> float:
+        """The step's time on the cell: the arm's transfer from the previous step plus the
+        trajectory (0 for fixture steps), s."""
+        if self.trajectory is None:
+            return 0.0
+        return self.trajectory.duration_s + (0.0 if self.arm is None else self.arm.transfer_s)
 
     @property
     def commanded_force_N(self) -> float:
@@ -290,6 +439,8 @@ class Step:
             "insertion_check_step_m": float(self.insertion_check_step_m),
             "checked_poses": int(self.checked_poses),
             "notes": list(self.notes),
+            "arm": None if self.arm is None else self.arm.to_dict(),
+            "cycle_time_s": float(self.cycle_time_s),
         }
 
     @classmethod
@@ -313,6 +464,7 @@ class Step:
             check_step_m=float(d.get("check_step_m", 0.0)),
             insertion_check_step_m=float(d.get("insertion_check_step_m", 0.0)),
             checked_poses=int(d.get("checked_poses", 0)), notes=tuple(d.get("notes", ())),
+            arm=None if d.get("arm") is None else ArmMotion.from_dict(d["arm"]),
         )
 
 
@@ -360,8 +512,14 @@ class Plan:
                 return s
         raise KeyError(f'plan has no step for part "{part}"; parts: {", ".join(self.sequence)}')
 
+    @property
+    def cycle_time_s(self) -> float:
+        """The product's cycle time on the cell: every step's transfer and trajectory, s."""
+        return float(sum(s.cycle_time_s for s in self.steps))
+
     def to_dict(self) -> dict[str, Any]:
         return {"format": PLAN_FORMAT, "version": PLAN_VERSION, "product": self.product,
+                "cycle_time_s": self.cycle_time_s,
                 "source": self.source, "source_sha256": self.source_sha256,
                 "sequence": list(self.sequence), "sequence_note": self.sequence_note,
                 "settings": self.settings.as_dict(),

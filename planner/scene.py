@@ -172,6 +172,10 @@ class Scene:
             self.corners[name] = np.where(_CORNER_SIGNS == 0, lo, hi)
         self.world.add(name, model, T)
 
+    def add_body(self, name: str, model: CollisionModel, T: np.ndarray) -> None:
+        """Add (or replace) a body of the cell, e.g. an arm link (:mod:`asmplan.planner.arm`)."""
+        self._add(name, model, T)
+
     def coarse_of(self, name: str) -> str:
         c = _coarse(name)
         return c if c in self.corners else name

@@ -103,7 +103,7 @@ def _step_rows(inp: ReportInputs, views: Views | None, folder: Path) -> list[dic
         outcome = res.outcome if res is not None else None
         clamp = step.clamp
         grip_limit = clamp.limit_N if clamp is not None else gripper.max_force_N
-        cycle = step.trajectory.t_s[-1] - step.trajectory.t_s[0] if step.trajectory is not None else None
+        cycle = step.cycle_time_s if step.trajectory is not None else None
         row: dict[str, Any] = {
             "index": step.index, "part": step.part, "kind": step.kind, "cycle": _fmt(cycle),
             "commanded": _fmt(clamp.commanded_N if clamp else None),
@@ -144,6 +144,27 @@ def _step_rows(inp: ReportInputs, views: Views | None, folder: Path) -> list[dic
     return rows
 
 
+def _arm_block(inp: ReportInputs) -> dict[str, Any] | None:
+    """The arm's table: per step transfer, trajectory and cycle time, branch and margins."""
+    robot = inp.product.resources.robot
+    if inp.plan is None or robot is None or not any(s.arm for s in inp.plan.steps):
+        return None
+    rows = []
+    for s in inp.plan.steps:
+        if s.arm is None or s.trajectory is None:
+            continue
+        slowed = ", ".join(f"{n} x{k:.2f}" for n, k in s.arm.phase_time_scale if k > 1.0 + 1e-6)
+        rows.append({"index": s.index, "part": s.part, "transfer": _fmt(s.arm.transfer_s),
+                     "trajectory": _fmt(s.trajectory.duration_s), "cycle": _fmt(s.cycle_time_s),
+                     "branch": s.arm.branch,
+                     "manipulability": _fmt(s.arm.min_manipulability_ratio, 100.0, 1),
+                     "margin": _fmt(s.arm.min_limit_margin_rad, 180.0 / math.pi, 1)
+                     + f" ({s.arm.limit_margin_joint})",
+                     "slowed": slowed or "none"})
+    return {"model": robot.model, "total": _fmt(inp.plan.cycle_time_s), "rows": rows,
+            "reach_image": ""}
+
+
 def _fidelity_block(fidelity: Any) -> dict[str, Any]:
     if fidelity is None:
         return {"name": "not simulated", "rows": [], "accuracy": ""}
@@ -167,6 +188,13 @@ def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True)
     if views is not None:
         images["assembled"], images["exploded"] = views.render_product(folder)
     steps = _step_rows(inp, views, folder)
+    arm = _arm_block(inp)
+    if arm is not None and render_images:
+        from ..planner.arm import reach_facts
+
+        shoulder, reach = reach_facts(inp.product.resources.robot)
+        plots.reach_plot(inp.product, inp.plan, shoulder, reach, folder / "cell-reach.png")
+        arm["reach_image"] = "cell-reach.png"
     success = (inp.results is not None and inp.results.success and not inp.failure)
     if inp.failure:
         verdict = "no plan"
@@ -181,6 +209,6 @@ def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True)
     html = env.get_template("report.html.j2").render(
         product=inp.product, source=str(inp.product.source), images=images,
         parts=_parts_rows(inp), mates=_mates_rows(inp.product), sequence=_sequence_block(inp),
-        steps=steps, fidelity=_fidelity_block(inp.fidelity), warnings=inp.warnings,
+        steps=steps, arm=arm, fidelity=_fidelity_block(inp.fidelity), warnings=inp.warnings,
         failure=inp.failure, success=success, verdict=verdict, version=__version__)
     return atomic_write_text(folder / "report.html", html)

@@ -176,3 +176,49 @@ def sweep_step_plot(step: Any, capture_m: float | None, path: str | Path) -> Pat
                  f"{100 * step.ci_high:.1f} %)",
                  fontsize=10)
     return _save(fig, path)
+
+
+def reach_plot(product: Any, plan: Any, shoulder_world_m: np.ndarray, reach_m: float,
+               path: str | Path) -> Path:
+    """Top view of the cell: the table, the arm's base, the boundary of the flange's reach
+    (its sphere about the shoulder cut at the table top and at the shoulder's height), the
+    planned steps' part starts (circles, named) and every part's assembled pose (squares)."""
+    fig, ax = _figure(6.5, 5.2)
+    size = np.asarray(product.resources.table.size_m, float)
+    ax.add_patch(_rect(-size[0] / 2, -size[1] / 2, size[0], size[1]))
+    sx, sy, sz = (float(v) for v in shoulder_world_m)
+    th = np.linspace(0, 2 * math.pi, 361)
+    for z, style, label in ((0.0, "-", "reach at the table top"),
+                            (sz, "--", f"reach at the shoulder's height ({sz * 1e3:.0f} mm)")):
+        r2 = reach_m ** 2 - (sz - z) ** 2
+        if r2 > 0:
+            r = math.sqrt(r2)
+            ax.plot(sx + r * np.cos(th), sy + r * np.sin(th), style, color="#3070b0", lw=1.2,
+                    label=f"{label}: {r * 1e3:.0f} mm")
+    ax.plot([sx], [sy], marker="o", ms=10, color="#3070b0", ls="none", label="arm base")
+    for i, part in enumerate(product.parts):
+        T_final = product.T_world_assembled(part.name)
+        ax.plot([T_final[0, 3]], [T_final[1, 3]], marker="s", ms=6, color="#555555", ls="none",
+                label="assembled poses" if i == 0 else None)
+    if plan is not None:
+        first = True
+        for s in plan.steps:
+            ax.plot([s.T_world_start[0, 3]], [s.T_world_start[1, 3]], marker="o", ms=6,
+                    color="#e08020", ls="none", label="part starts" if first else None)
+            ax.annotate(s.part, (s.T_world_start[0, 3], s.T_world_start[1, 3]), fontsize=7,
+                        xytext=(3, 3), textcoords="offset points")
+            first = False
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(f"reach of the arm: flange within {reach_m * 1e3:.0f} mm of the shoulder",
+                 fontsize=9)
+    ax.legend(fontsize=7, loc="upper right")
+    ax.grid(True, lw=0.3)
+    return _save(fig, path)
+
+
+def _rect(x: float, y: float, w: float, h: float):
+    from matplotlib.patches import Rectangle
+
+    return Rectangle((x, y), w, h, facecolor="#eeeae2", edgecolor="#999999", lw=1.0)

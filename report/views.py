@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from ..parts.models import ProductGeometry
 
 GRIPPER_RGBA = (0.25, 0.27, 0.30, 1.0)
+ARM_RGBA = (0.92, 0.92, 0.94, 1.0)
 HELD_RGBA = (0.95, 0.55, 0.10, 1.0)
 TABLE_RGBA = (0.86, 0.84, 0.80, 1.0)
 VIEW_DIRECTION = (1.0, -1.3, 0.9)
@@ -80,6 +81,38 @@ class Views:
         return SceneItem(mesh, np.asarray(T_world_part) @ grasp.T_part_gripper, GRIPPER_RGBA,
                          name="gripper")
 
+    def arm_states(self, step: Step) -> dict[str, np.ndarray]:
+        """The arm's joint angles (6,) at the pick (the clamp's start), pre-insertion (the
+        lowering's start) and inserted (the release's start) views; empty without an arm."""
+        if step.arm is None or step.trajectory is None:
+            return {}
+        traj = step.trajectory
+        out = {}
+        for label, phase in (("pick", "clamp"), ("pre-insertion", "lower"),
+                             ("inserted", "release")):
+            names = [p.name for p in traj.phases]
+            if phase in names:
+                t = traj.phases[names.index(phase)].t_start_s
+                k = int(np.argmin(np.abs(traj.t_s - t)))
+                out[label] = step.arm.q_rad[k]
+        return out
+
+    def arm_items(self, q_rad: np.ndarray) -> list[SceneItem]:
+        """The arm's links (their collision hulls) posed at ``q_rad``."""
+        robot = self.product.resources.robot
+        if robot is None:
+            return []
+        from ..planner.arm import posed_links  # the planner's kinematics poses the links
+
+        if not hasattr(self, "_arm_meshes"):
+            self._arm_meshes: dict[str, trimesh.Trimesh] = {}
+        items = []
+        for name, model, T in posed_links(robot, q_rad):
+            if name not in self._arm_meshes:
+                self._arm_meshes[name] = pieces_mesh(model)
+            items.append(SceneItem(self._arm_meshes[name], T, ARM_RGBA, name=f"arm:{name}"))
+        return items
+
     def table_item(self, items: Sequence[SceneItem]) -> SceneItem:
         """A thin slab under the items (the table top, z <= 0), only as large as needed."""
         bounds = np.array([it.world_bounds_m() for it in items])
@@ -127,10 +160,13 @@ class Views:
                        self.part_item(step.part, step.T_world_final)]
         camera = fit_camera(frame_items, direction=VIEW_DIRECTION, width_px=self.width_px,
                             height_px=self.height_px)
+        arm_q = self.arm_states(step)
         for label, (T, opening) in poses.items():
             items = [*self.assembled_items(placed), self.part_item(step.part, T, HELD_RGBA)]
             if step.grasp is not None:
                 items.append(self.gripper_item(step, T, opening))
+            if label in arm_q:
+                items += self.arm_items(arm_q[label])
             name = f"step{step.index:02d}-{label}.png"
             self.shoot(items, folder / name, camera=camera)
             out[label] = name

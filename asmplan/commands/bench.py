@@ -31,7 +31,8 @@ from ..fileio import atomic_write_bytes, atomic_write_text
 CHECKOUT = Path(__file__).resolve().parents[2]
 """The source checkout this asmplan runs from (for a wheel: site-packages, without bench/)."""
 
-SECTIONS: tuple[str, ...] = ("accuracy", "seed", "planning", "scaling", "culling", "sweep", "read")
+SECTIONS: tuple[str, ...] = ("accuracy", "seed", "planning", "arm", "scaling", "culling", "sweep",
+                            "read")
 SCALING_SIZES: tuple[int, ...] = (5, 10, 20, 50, 100)
 
 
@@ -138,6 +139,10 @@ def run(args: argparse.Namespace) -> int:
         log("planning: bundled examples vs direct OMPL insertion")
         rep.planning = b.run_planning()
         show("Motion planning per step", b.format_planning(rep.planning))
+    if "arm" in sections:
+        log("arm: IK per waypoint and planning per step with and without the arm")
+        rep.arm = b.run_arm(log=log)
+        show("The arm", b.format_arm(rep.arm))
     kept = None
     if "scaling" in sections:
         log(f"scaling: generated products of {', '.join(map(str, args.sizes))} parts")

@@ -130,8 +130,14 @@ def run(args: argparse.Namespace) -> int:
           f"(part geometry {result.geometry_s:.2f} s; order: {result.plan.sequence_note}); "
           f"plan written to {args.output}")
     print(summary_table(result.plan, ms))
+    if any(s.arm is not None for s in result.plan.steps):
+        print(f"cycle time with the arm ({product.resources.robot.model}): "
+              f"{result.plan.cycle_time_s:.2f} s; per step: " + ", ".join(
+                  f"{s.part} {s.cycle_time_s:.2f} s" for s in result.plan.steps
+                  if s.trajectory is not None))
     for s in result.plan.steps:
         for n in (s.start_note, *s.notes):
-            if n and ("raised" in n or "no start pose" in n or "hint" in n):
+            if n and ("raised" in n or "no start pose" in n or "hint" in n
+                      or "joint space" in n):
                 print(f"note: {s.part}: {n}")
     return 0

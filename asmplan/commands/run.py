@@ -53,14 +53,18 @@ def summary_table(result: RunResult) -> str:
         sim = sims.get(step.index)
         o = sim.outcome if sim is not None else None
         traj = step.trajectory
-        cycle = f"{traj.t_s[-1] - traj.t_s[0]:.2f}" if traj is not None else "-"
+        cycle = f"{step.cycle_time_s:.2f}" if traj is not None else "-"
         verdict = "-" if o is None else ("ok" if o.success else "FAILED: " + "; ".join(o.reasons))
         rows.append((str(step.index), step.part, step.kind, cycle,
                      f"{o.peak_clamp_force_N:.2f}" if o else "-",
                      f"{step.clamp.slip_limit_N:.2f}" if step.clamp else "-",
                      f"{o.peak_insertion_force_N:.2f}" if o else "-",
                      f"{o.final_position_error_m * 1e3:.3f}" if o else "-", verdict))
-    return format_table(head, rows)
+    table = format_table(head, rows)
+    if result.plan is not None and any(s.arm is not None for s in result.plan.steps):
+        table += (f"\ncycle time with the arm: {result.plan.cycle_time_s:.2f} s (joint moves "
+                  "between steps included)")
+    return table
 
 
 def run(args: argparse.Namespace) -> int:

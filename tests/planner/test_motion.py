@@ -95,8 +95,10 @@ def test_pinhole_median_step_time_and_determinism(examples, geometry_cache):
     assert c.plan.to_json() != a.plan.to_json() or all(
         s.path_T_world_gripper is None or len(s.path_T_world_gripper) == 2
         for s in c.plan.steps)  # a straight path is the same for every seed
-    times = sorted(t.total_s for t in a.step_times[1:])
-    # generous bound for shared CI machines; the benchmark reports the real figure
+    # CPU time (the steps now include the arm: IK, arm collisions, joint timing): wall time
+    # on a shared 2-core machine at load 10 was 6x the CPU time; generous bound, the
+    # benchmark reports the real figures
+    times = sorted(t.cpu_s for t in a.step_times[1:])
     assert times[len(times) // 2] < 0.5
 
 

@@ -1,0 +1,1055 @@
+"""The cell's arm: kinematics (pinocchio), reach, joint limits, singularities, arm collisions
+and joint-limited timing of every step. The ONLY module of asmplan that imports pinocchio.
+
+Kinematics
+----------
+The URDF named by ``resources.robot`` is loaded with pinocchio (``pin``, see the README's
+dependency table for why). Forward kinematics gives the flange; the gripper's TCP is
+``T_world_base @ T_base_flange(q) @ T_flange_tcp``. Inverse kinematics is damped least
+squares on the SE(3) log error (pinocchio's ``log6`` and ``Jlog6``), converging to
+:attr:`ArmSettings.ik_tolerance_m` in position and 1e-6 rad in orientation:
+
+* **all branches** (:meth:`ArmModel.ik_all`): the solver is started from a fixed set of seeds
+  that span the shoulder (facing the target or turned away), the elbow (up/down) and the wrist
+  (flipped or not) plus seeded random configurations; converged solutions are deduplicated
+  (joint angles compared modulo 2 pi) and each is labelled by its shoulder/elbow/wrist signs.
+  A 6-axis arm without a closed form has at most 16 branches; the seeds find the ones the
+  limits allow in practice (tests check FK(IK(T)) = T and the branch count of the xArm 6).
+* **along a path** (:meth:`ArmModel.track`): from one branch at the path's first pose, every
+  next pose is solved from the previous solution (continuity). A solution that moves any
+  joint more than :attr:`ArmSettings.max_joint_jump_rad` between two samples 10 ms apart is a
+  branch change or a singularity: the branch fails there.
+
+Margins: the joint-limit margin (smallest distance of a joint to its limit, rad, and which
+joint) and Yoshikawa's manipulability ``sqrt(det(J J^T))`` of the 6x6 Jacobian, reported as a
+fraction of the arm's best (measured over 2000 seeded configurations). A path whose
+manipulability falls below :attr:`ArmSettings.min_manipulability_ratio` passes too close to
+a singularity and fails.
+
+Collisions
+----------
+The links' collision models (:mod:`asmplan.parts.arm_links`) join the planner's FCL scene as
+bodies ``arm:<link>``. Every state of the step's joint path (the IK solutions at the
+trajectory's samples, linear in joint space between them) is checked against the table, every
+part at its current pose (the moving part at its start pose until the clamp, at its seated
+pose from the release on), the gripper and the carried part (links more than two joints from
+the flange) and the other links (pairs that are not neighbours and not in contact at every
+one of 200 seeded configurations, the usual "allowed collision" rule). The check is
+conservative advancement in joint space: at a state whose bodies are ``d`` apart, no point of
+a link moves farther than ``sum_j rho_j |dq_j|`` (``rho_j`` bounds the distance from joint
+``j`` to any point beyond it, tool and carried part included), so the next state checked is
+where that bound reaches ``d`` (``d / 2`` for two moving bodies); closer than
+:attr:`ArmSettings.check_step_m` the states are checked for contact at that step.
+
+Timing
+------
+The Cartesian trajectory (timed within the process's speed and acceleration limits) is
+retimed phase by phase: each phase's time axis is stretched by
+``k = max(1, max |dq/dt| / v_max, sqrt(max |d2q/dt2| / a_max))`` (finite differences of the
+IK solutions at the samples), which keeps the path, keeps every Cartesian speed within its
+limit (it only slows) and brings every joint within its velocity and acceleration limits.
+Between steps the arm moves rest-to-rest in joint space from the previous step's last state
+to the next step's first (minimum-jerk, the slowest joint within its limits); that transfer
+time counts in the cycle time.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from ..knowledge.frames import invert
+from ..knowledge.model import Robot
+from ..parts.arm_links import link_models
+from ..parts.pieces import CollisionModel
+from .errors import (
+    ArmCollisionError,
+    ArmPathError,
+    CollidingPair,
+    JointLimitError,
+    OutOfReachError,
+)
+from .plan import ArmMotion, ArmSettings
+from .timing import min_jerk_duration_s
+from .trajectory import PhaseSpan, Trajectory
+
+ARM_PREFIX = "arm:"
+_TWO_PI = 2.0 * math.pi
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    return (np.asarray(a) + math.pi) % _TWO_PI - math.pi
+
+
+@dataclass(frozen=True)
+class IkSolution:
+    """One inverse-kinematics solution: joint angles (rad, within the limits), its branch
+    label, manipulability and joint-limit margin (rad) with the joint that has it."""
+
+    q_rad: np.ndarray
+    branch: str
+    manipulability: float
+    limit_margin_rad: float
+    limit_joint: str
+
+
+@dataclass(frozen=True)
+class IkFailure:
+    """Why a pose has no usable IK solution: ``kind`` "reach" (no solution converged; the
+    flange is ``distance_m`` from the shoulder) or "limit" (solutions exist, each needs a
+    joint beyond its limits: the least violating one is given)."""
+
+    kind: str
+    distance_m: float
+    joint: str = ""
+    value_rad: float = 0.0
+    lower_rad: float = 0.0
+    upper_rad: float = 0.0
+
+
+class ArmModel:
+    """Kinematics of the cell's arm (pinocchio model of the URDF, base pose, mounting).
+
+    Parameters
+    ----------
+    robot : Robot
+        From the product's resources (URDF path, base, mounting, joint limits).
+    settings : ArmSettings
+    """
+
+    def __init__(self, robot: Robot, settings: ArmSettings) -> None:
+        if robot.urdf_path is None:
+            raise ValueError("robot: expected a URDF path, found none")
+        self.robot = robot
+        self.settings = settings
+        self.model = pin.buildModelFromUrdf(str(robot.urdf_path))
+        self.data = self.model.createData()
+        names = [self.model.names[i] for i in range(1, self.model.njoints)]
+        order = [j.name for j in robot.joints]
+        if names != order or self.model.nq != len(order):
+            raise ValueError(f"robot: expected pinocchio's joints {names} to match the URDF chain "
+                             f"{order}")
+        self.joint_names = tuple(order)
+        self.lower = np.array([j.lower_rad for j in robot.joints])
+        self.upper = np.array([j.upper_rad for j in robot.joints])
+        self.vmax = np.array([j.velocity_rad_s for j in robot.joints])
+        self.amax = np.array([j.acceleration_rad_s2 for j in robot.joints])
+        self.flange_id = self.model.getFrameId(robot.flange_link)
+        self._frame_ids: dict[tuple[str, ...], list[int]] = {}
+        self.T_world_base = np.asarray(robot.T_world_base, float)
+        self.T_base_world = invert(self.T_world_base)
+        self.T_flange_tcp = np.asarray(robot.T_flange_tcp, float)
+        self.T_tcp_flange = invert(self.T_flange_tcp)
+        self.joint_ids = list(range(1, self.model.njoints))
+        q0 = np.zeros(6)
+        pin.forwardKinematics(self.model, self.data, q0)
+        # the shoulder: where joint 2's axis meets the plane of joint 1's axis (base frame)
+        self.shoulder_base = self.data.oMi[2].translation.copy()
+        facts = _arm_facts(str(robot.urdf_path), robot.flange_link, tuple(self.lower),
+                           tuple(self.upper))
+        self.best_manipulability = facts[0]
+        self.measured_reach_m = facts[1]
+        self.elbow_ref, self.wrist_ref = facts[2], facts[3]
+        self.reach_m = robot.reach_m if robot.reach_m is not None else self.measured_reach_m
+
+    # -- forward kinematics -----------------------------------------------------------------
+    def fk(self, q: np.ndarray) -> np.ndarray:
+        """TCP pose (4, 4) in the world for joint angles ``q`` (6,), rad."""
+        pin.framesForwardKinematics(self.model, self.data, np.asarray(q, float))
+        return self.T_world_base @ self.data.oMf[self.flange_id].homogeneous @ self.T_flange_tcp
+
+    def link_poses(self, q: np.ndarray, links: Sequence[str]) -> list[np.ndarray]:
+        """World poses (4, 4) of the named links at ``q``."""
+        pin.framesForwardKinematics(self.model, self.data, np.asarray(q, float))
+        ids = self._frame_ids.get(tuple(links))
+        if ids is None:
+            ids = self._frame_ids[tuple(links)] = [self.model.getFrameId(n) for n in links]
+        return [self.T_world_base @ self.data.oMf[i].homogeneous for i in ids]
+
+    def flange_distance_m(self, T_world_tcp: np.ndarray) -> float:
+        """Distance from the shoulder to the flange that puts the TCP at ``T_world_tcp``, m."""
+        p = (self.T_base_world @ T_world_tcp @ self.T_tcp_flange)[:3, 3]
+        return float(np.linalg.norm(p - self.shoulder_base))
+
+    def manipulability(self, q: np.ndarray) -> float:
+        """Yoshikawa's ``sqrt(det(J J^T))`` of the flange Jacobian at ``q``."""
+        J = pin.computeFrameJacobian(self.model, self.data, np.asarray(q, float), self.flange_id,
+                                     pin.LOCAL_WORLD_ALIGNED)
+        return float(abs(np.linalg.det(J)))
+
+    def limit_margin(self, q: np.ndarray) -> tuple[float, int]:
+        """Smallest distance of a joint to its limits (rad, negative beyond) and the joint."""
+        m = np.minimum(q - self.lower, self.upper - q)
+        i = int(np.argmin(m))
+        return float(m[i]), i
+
+    def branch_label(self, q: np.ndarray, T_world_tcp: np.ndarray) -> str:
+        """Shoulder (front/back: the wrist on the side joint 1 faces or behind), elbow (up/down
+        of the stretched arm) and wrist (flip) signs of a configuration."""
+        p = (self.T_base_world @ T_world_tcp @ self.T_tcp_flange)[:3, 3]
+        facing = math.cos(q[0] - math.atan2(p[1], p[0])) if np.hypot(p[0], p[1]) > 1e-9 else 1
+        shoulder = "front" if facing >= 0 else "back"
+        elbow = "up" if math.sin(q[2] - self.elbow_ref) >= 0 else "down"
+        wrist = "noflip" if math.sin(q[4] - self.wrist_ref) >= 0 else "flip"
+        return f"{shoulder}/{elbow}/{wrist}"
+
+    # -- inverse kinematics -----------------------------------------------------------------
+    def _target(self, T_world_tcp: np.ndarray) -> pin.SE3:
+        T = self.T_base_world @ T_world_tcp @ self.T_tcp_flange
+        return pin.SE3(T[:3, :3].copy(), T[:3, 3].copy())
+
+    def solve(self, T_world_tcp: np.ndarray, q_seed: np.ndarray, max_iter: int = 60
+              ) -> tuple[np.ndarray, bool]:
+        """Damped least squares from ``q_seed``; returns (q, converged). ``q`` is not wrapped
+        into the limits (continuity from the seed)."""
+        return self._solve(self._target(T_world_tcp), np.array(q_seed, float), max_iter)
+
+    def _solve(self, target: pin.SE3, q: np.ndarray, max_iter: int) -> tuple[np.ndarray, bool]:
+        model, data, fid = self.model, self.data, self.flange_id
+        tol_p = self.settings.ik_tolerance_m
+        tol_r = self.settings.ik_tolerance_rad
+        lam = 1e-6
+        for it in range(max_iter):
+            pin.framesForwardKinematics(model, data, q)
+            M = data.oMf[fid].actInv(target)
+            err = pin.log6(M).vector
+            if np.linalg.norm(err[:3]) < tol_p and np.linalg.norm(err[3:]) < tol_r:
+                return q, True
+            if it == 20 and np.linalg.norm(err) > 1e-2:  # not converging from this seed
+                return q, False
+            J = pin.Jlog6(M) @ pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)
+            JJt = J @ J.T
+            dq = J.T @ np.linalg.solve(JJt + lam * np.eye(6), err)
+            n = float(np.linalg.norm(dq))
+            if n > 0.5:  # trust region: big steps cross branches
+                dq *= 0.5 / n
+            q = q + dq
+        return q, False
+
+    def _in_limits(self, q: np.ndarray) -> np.ndarray | None:
+        """The representation ``q + 2 pi k`` within the limits nearest to zero, or None."""
+        out = np.empty(6)
+        for i, (v, lo, hi) in enumerate(zip(q, self.lower, self.upper, strict=True)):
+            cands = [v + _TWO_PI * k for k in range(-2, 3) if lo <= v + _TWO_PI * k <= hi]
+            if not cands:
+                return None
+            out[i] = min(cands, key=abs)
+        return out
+
+    def seeds(self, T_world_tcp: np.ndarray) -> list[np.ndarray]:
+        """Seeds spanning the branches: shoulder facing/away x elbow up/down x wrist flip,
+        then seeded random configurations within the limits (wide joints within +-pi)."""
+        p = (self.T_base_world @ T_world_tcp @ self.T_tcp_flange)[:3, 3]
+        phi = math.atan2(p[1], p[0])
+        lo = np.maximum(self.lower, -math.pi)
+        hi = np.minimum(self.upper, math.pi)
+        mid = 0.5 * (lo + hi)
+        out = []
+        for sh, el, wr in itertools.product((0.0, math.pi), (-0.6, 0.6), (-1.0, 1.0)):
+            q = mid.copy()
+            q[0] = _wrap(phi + sh)
+            q[1] = mid[1] + (0.4 if sh == 0 else -0.4)
+            q[2] = self.elbow_ref + el
+            q[4] = self.wrist_ref + wr
+            out.append(np.clip(q, lo, hi))
+        rng = np.random.default_rng(self.settings.seed)
+        extra = max(0, self.settings.ik_seeds - len(out))
+        out += list(rng.uniform(lo, hi, size=(extra, 6)))
+        return out
+
+    def ik_any(self, T_world_tcp: np.ndarray, near: np.ndarray | None = None
+               ) -> np.ndarray | None:
+        """One solution within the limits (from ``near`` first, then the branch seeds), or
+        None; cheap when the pose is reachable (a feasibility test)."""
+        target = self._target(T_world_tcp)
+        seeds = ([] if near is None else [np.asarray(near, float)]) + self.seeds(T_world_tcp)
+        for seed in seeds:
+            q, ok = self._solve(target, seed, 60)
+            if ok:
+                qi = self._in_limits(q)
+                if qi is not None:
+                    return qi
+        return None
+
+    def ik_all(self, T_world_tcp: np.ndarray) -> tuple[list[IkSolution], IkFailure | None]:
+        """Every branch found for ``T_world_tcp`` within the limits (sorted by label), and
+        when none is usable, why (:class:`IkFailure`)."""
+        target = self._target(T_world_tcp)
+        found: list[np.ndarray] = []
+        outside: list[np.ndarray] = []
+        seeds = self.seeds(T_world_tcp)
+        k = 0
+        while k < len(seeds):
+            q, ok = self._solve(target, seeds[k], 60)
+            k += 1
+            if not ok:
+                continue
+            if any(np.abs(_wrap(q - f)).max() < 1e-3 for f in found + outside):
+                continue
+            qi = self._in_limits(q)
+            if qi is None:
+                outside.append(q)
+            else:
+                found.append(qi)
+            # the wrist flip of a solution is (nearly, with wrist offsets) another one
+            flip = q.copy()
+            flip[3] += math.pi
+            flip[4] = 2 * self.wrist_ref - flip[4]
+            flip[5] += math.pi
+            seeds.append(flip)
+        sols = []
+        for q in found:
+            m, i = self.limit_margin(q)
+            sols.append(IkSolution(q, self.branch_label(q, T_world_tcp), self.manipulability(q),
+                                   m, self.joint_names[i]))
+        sols.sort(key=lambda s: (s.branch, tuple(np.round(s.q_rad, 6))))
+        if sols:
+            return sols, None
+        dist = self.flange_distance_m(T_world_tcp)
+        if not outside:
+            return [], IkFailure("reach", dist)
+        # per solution and joint: by how much the nearest representation is beyond the limits
+        over = np.zeros((len(outside), 6))
+        value = np.zeros((len(outside), 6))
+        for n, q in enumerate(outside):
+            for i in range(6):
+                reps = [float(q[i]) + _TWO_PI * k for k in range(-2, 3)]
+                o, r = min((max(self.lower[i] - r, r - self.upper[i]), r) for r in reps)
+                over[n, i], value[n, i] = o, r
+        # name the joint every branch violates (the smallest violation among those); else the
+        # smallest violation of any branch
+        common = [i for i in range(6) if np.all(over[:, i] > 0)]
+        pool = [(float(over[n, i]), n, i) for n in range(len(outside))
+                for i in (common or range(6)) if over[n, i] > 0]
+        _, n, i = min(pool)
+        v = float(value[n, i])
+        return [], IkFailure("limit", dist, self.joint_names[i], v, float(self.lower[i]),
+                             float(self.upper[i]))
+
+
+@cache
+def _arm_facts(urdf: str, flange: str, lower: tuple[float, ...], upper: tuple[float, ...]
+               ) -> tuple[float, float, float, float]:
+    """Measured once per arm: best manipulability and reach (2000 seeded configurations
+    within the limits), the elbow angle of the stretched arm and the wrist's aligned angle."""
+    model = pin.buildModelFromUrdf(urdf)
+    data = model.createData()
+    fid = model.getFrameId(flange)
+    lo = np.maximum(lower, -math.pi)
+    hi = np.minimum(upper, math.pi)
+    rng = np.random.default_rng(0)
+    best_w = 0.0
+    pin.forwardKinematics(model, data, np.zeros(6))
+    shoulder = data.oMi[2].translation.copy()
+    reach = 0.0
+    for q in rng.uniform(lo, hi, size=(2000, 6)):
+        J = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)
+        best_w = max(best_w, abs(float(np.linalg.det(J))))
+    # elbow: the q3 that puts the wrist centre (joint 5's origin) farthest from the shoulder
+    scan = np.linspace(-math.pi, math.pi, 721)
+    dists = []
+    for a in scan:
+        q = np.zeros(6)
+        q[2] = a
+        pin.forwardKinematics(model, data, q)
+        dists.append(np.linalg.norm(data.oMi[5].translation - shoulder))
+    elbow = float(scan[int(np.argmax(dists))])
+    # reach: the stretched arm's flange distance over the wrist angles
+    for a5 in np.linspace(lo[4], hi[4], 181):
+        q = np.zeros(6)
+        q[2] = elbow
+        q[4] = a5
+        pin.framesForwardKinematics(model, data, q)
+        reach = max(reach, float(np.linalg.norm(data.oMf[fid].translation - shoulder)))
+    # wrist: the q5 that aligns joint 4's and joint 6's axes (the wrist singularity)
+    cross = []
+    for a in scan:
+        q = np.zeros(6)
+        q[4] = a
+        pin.forwardKinematics(model, data, q)
+        z4 = data.oMi[4].rotation[:, 2]
+        z6 = data.oMi[6].rotation[:, 2]
+        cross.append(float(np.dot(z4, z6)))
+    wrist = float(scan[int(np.argmax(cross))])
+    return best_w, reach, elbow, wrist
+
+
+# ---------------------------------------------------------------------------------------------
+# The arm in the planner's scene
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class _Phase:
+    name: str
+    carried: bool  # the part moves with the TCP
+    gripper: str  # which gripper body is at the TCP
+
+
+class ArmPlanner:
+    """Checks and times every step of a plan with the cell's arm.
+
+    Parameters
+    ----------
+    robot : Robot
+    scene : asmplan.planner.motion.Scene
+        The planner's FCL scene; the link bodies ``arm:<link>`` are added to it.
+    settings : ArmSettings
+    gripper_names : (closed, open) body names of the gripper in the scene.
+    """
+
+    def __init__(self, robot: Robot, scene, settings: ArmSettings,
+                 gripper_names: tuple[str, str]) -> None:
+        self.arm = ArmModel(robot, settings)
+        self.settings = settings
+        self.scene = scene
+        self.gripper_closed, self.gripper_open = gripper_names
+        urdf = _read_urdf(Path(robot.urdf_path), robot.flange_link)  # type: ignore[arg-type]
+        self.models: dict[str, CollisionModel] = link_models(urdf)
+        self.links = [ln for ln in urdf.links if ln in self.models]
+        m = self.arm.model
+        # links on the base (their frame hangs on the universe joint) never move
+        self.static_links = [ln for ln in self.links
+                             if m.frames[m.getFrameId(ln)].parentJoint == 0]
+        self.moving_links = [ln for ln in self.links if ln not in self.static_links]
+        # how many joints move each link (pinocchio's parent joint of its frame)
+        self.joint_depth = {ARM_PREFIX + ln: int(m.frames[m.getFrameId(ln)].parentJoint)
+                            for ln in self.links}
+        self.body = {ln: ARM_PREFIX + ln for ln in self.links}
+        self.bodies = [self.body[ln] for ln in self.links]
+        from ..knowledge.robot import LINK_NAMES
+
+        self.link_names = {self.body[ln]: n for ln, n in
+                           LINK_NAMES.get(robot.model.lower(), {}).items() if ln in self.body}
+        self.moving_bodies = [self.body[ln] for ln in self.moving_links]
+        far = np.eye(4)
+        far[:3, 3] = -1e3
+        for ln in self.links:
+            scene.add_body(self.body[ln], self.models[ln], far)
+        # index of each link along the chain (0 = root); links[k] moves with joints < k
+        self.chain_index = {ln: urdf.links.index(ln) for ln in self.links}
+        # the tool and the carried part are checked against the base and every link more
+        # than two joints from the flange (the wrist links hold the tool)
+        self.tool_links = [ln for ln in self.links
+                           if self.chain_index[ln] <= len(urdf.links) - 3]
+        self.self_pairs = self._self_pairs(urdf.links)
+        self._bounds = self._reach_bounds()
+        self.last_q: np.ndarray | None = None
+        self._poses: dict[str, np.ndarray] = {}
+
+    # -- setup ------------------------------------------------------------------------------
+    def _self_pairs(self, chain: Sequence[str]) -> list[tuple[str, str]]:
+        """Link pairs to check: not neighbours on the chain and not in contact at every one
+        of 200 seeded configurations."""
+        cand = [(a, b) for a, b in itertools.combinations(self.links, 2)
+                if abs(chain.index(a) - chain.index(b)) > 1]
+        rng = np.random.default_rng(self.settings.seed)
+        lo = np.maximum(self.arm.lower, -math.pi)
+        hi = np.minimum(self.arm.upper, math.pi)
+        always = set(cand)
+        world = self.scene.world
+        for q in rng.uniform(lo, hi, size=(200, 6)):
+            self._pose_links(q)
+            always = {p for p in always if world.in_collision(self.body[p[0]], [self.body[p[1]]],
+                                                              1e-6)}
+            if not always:
+                break
+        return [p for p in cand if p not in always]
+
+    def _reach_bounds(self) -> tuple[np.ndarray, float]:
+        """Per joint, the sum of the joint offsets beyond it up to the flange frame, and the
+        largest distance of a link's collision geometry from its own frame (m)."""
+        m = self.arm.model
+        offsets = [float(np.linalg.norm(m.jointPlacements[i].translation))
+                   for i in range(1, m.njoints)]
+        flange = float(np.linalg.norm(m.frames[self.arm.flange_id].placement.translation))
+        beyond = np.array([sum(offsets[j + 1:]) + flange for j in range(6)])
+        ext = 0.0
+        for model in self.models.values():
+            for p in model.pieces:
+                if p.vertices_m is not None:
+                    r = float(np.linalg.norm(p.vertices_m, axis=1).max())
+                elif p.half_extents_m is not None:
+                    r = float(np.linalg.norm(p.half_extents_m))
+                else:
+                    r = math.hypot(p.radius_m, p.length_m / 2)
+                ext = max(ext, float(np.linalg.norm(p.T_part_piece[:3, 3])) + r)
+        return beyond, ext
+
+    def rho(self, tool_radius_m: float) -> np.ndarray:
+        """Per joint, a bound of the distance from its axis to any point of the links beyond
+        it and of the tool (gripper and carried part within ``tool_radius_m`` of the TCP):
+        the triangle inequality over the joint offsets, m."""
+        beyond, ext = self._bounds
+        tool = float(np.linalg.norm(self.arm.T_flange_tcp[:3, 3])) + tool_radius_m
+        return beyond + max(ext, tool)
+
+    def _pose_links(self, q: np.ndarray) -> list[tuple[str, np.ndarray]]:
+        poses = self.arm.link_poses(q, self.links)
+        out = []
+        for ln, T in zip(self.links, poses, strict=True):
+            self.scene.world.set_pose(self.body[ln], T)
+            out.append((self.body[ln], T))
+        return out
+
+    # -- key poses --------------------------------------------------------------------------
+    def check_pose(self, index: int, part: str, what: str, T_world_tcp: np.ndarray
+                   ) -> list[IkSolution]:
+        """The IK branches of a key pose; raises when there is none: out of reach (with the
+        distance and the reach) or beyond a joint limit (naming the joint)."""
+        dist = self.arm.flange_distance_m(T_world_tcp)
+        if dist > self.arm.reach_m:
+            raise OutOfReachError(index, part, what, dist, self.arm.reach_m, T_world_tcp)
+        if self.arm.ik_any(T_world_tcp, self.last_q) is not None:
+            return []
+        sols, fail = self.arm.ik_all(T_world_tcp)
+        if fail is None:
+            return sols
+        if fail.kind == "limit":
+            raise JointLimitError(index, part, what, fail.joint, fail.value_rad, fail.lower_rad,
+                                  fail.upper_rad, T_world_tcp)
+        raise OutOfReachError(index, part, what, dist, min(self.arm.reach_m, dist),
+                              T_world_tcp) if dist > self.arm.measured_reach_m else ArmPathError(
+            index, part, what, f"no inverse-kinematics solution from {len(self.arm.seeds(T_world_tcp))}"
+            f" seeds (flange {dist * 1e3:.0f} mm from the shoulder, reach "
+            f"{self.arm.reach_m * 1e3:.0f} mm)", T_world_tcp)
+
+    # -- a whole step -----------------------------------------------------------------------
+    def plan_step(self, index: int, part: str, traj: Trajectory, T_tcp_part: np.ndarray,
+                  obstacles: Sequence[str], T_start: np.ndarray, T_final: np.ndarray,
+                  tool_radius_m: float, max_tcp_speed_m_s: float = math.inf,
+                  ompl: tuple[str, float, int] = ("RRTConnect", 1.0, 0)
+                  ) -> tuple[Trajectory, ArmMotion]:
+        """IK along the step's whole trajectory on the best branch that works, every state
+        checked for collisions, then the trajectory retimed within the joint limits.
+
+        Where no branch can follow the planned (Cartesian) transfer from the lifted to the
+        pre-insertion pose, the transfer is planned in joint space with OMPL on each branch
+        (``ompl``: planner, time budget s, seed), the straight segments staying Cartesian;
+        the TCP then follows FK of the joint path, at most ``max_tcp_speed_m_s`` fast
+        (``tool_radius_m`` bounds the gripper and part about the TCP).
+
+        Raises
+        ------
+        ArmError
+            The first key pose out of reach or beyond a joint limit; else, when every branch
+            fails along the path, the failure of the branch nearest the arm's last state.
+        """
+        T = traj.T_world_gripper
+        phase_idx = traj.phase_indices_at(traj.t_s)
+        names = [p.name for p in traj.phases]
+        self.check_pose(index, part, "pre-grasp pose", T[0])
+        sols, _ = self.arm.ik_all(T[0])
+        ref = self.last_q
+        if ref is not None:
+            sols = sorted(sols, key=lambda s: float(np.abs(self._near(s.q_rad, ref) - ref).sum()))
+        else:
+            sols = sorted(sols, key=lambda s: (-min(s.manipulability / self.arm.best_manipulability,
+                                                    0.2) - s.limit_margin_rad * 0.01))
+        failures: list = []
+        for sol in sols:
+            q0 = sol.q_rad if ref is None else self._near(sol.q_rad, ref)
+            try:
+                Q, stats = self._track_wrapped(index, part, T, phase_idx, names, q0)
+                checked = self._check_path(index, part, Q, phase_idx, names, T_tcp_part,
+                                           obstacles, T_start, T_final, self.rho(tool_radius_m))
+                transfer = self._transfer(index, part, Q[0], obstacles, T_start, T_final,
+                                          tool_radius_m, ompl)
+            except (ArmPathError, ArmCollisionError, JointLimitError) as exc:
+                failures.append(exc)
+                continue
+            return self._finish(traj, Q, stats, sol, names, checked, len(sols), False,
+                                transfer)
+        translate_failed = [f for f in failures if f.phase == "translate"]
+        if translate_failed and "translate" in names:
+            for sol in sols:
+                q0 = sol.q_rad if ref is None else self._near(sol.q_rad, ref)
+                try:
+                    new, Q, stats = self._joint_translate(
+                        index, part, traj, q0, sol.branch, T_tcp_part, obstacles, T_final,
+                        tool_radius_m, max_tcp_speed_m_s, ompl)
+                    names2 = [p.name for p in new.phases]
+                    idx2 = new.phase_indices_at(new.t_s)
+                    checked = self._check_path(index, part, Q, idx2, names2, T_tcp_part,
+                                               obstacles, T_start, T_final,
+                                               self.rho(tool_radius_m),
+                                               tool_env_phases=("translate",))
+                    transfer = self._transfer(index, part, Q[0], obstacles, T_start, T_final,
+                                              tool_radius_m, ompl)
+                except (ArmPathError, ArmCollisionError, JointLimitError) as exc:
+                    failures.append(exc)
+                    continue
+                return self._finish(new, Q, stats, sol, names2, checked, len(sols), True,
+                                    transfer)
+        raise failures[0]
+
+    def _finish(self, traj: Trajectory, Q: np.ndarray, stats: tuple[float, float, str, float],
+                sol: IkSolution, names: list[str], checked: int, n_branches: int,
+                joint_space: bool, transfer: tuple[np.ndarray, float, int]
+                ) -> tuple[Trajectory, ArmMotion]:
+        new_traj, scales = retime(traj, Q, self.arm.vmax, self.arm.amax)
+        self.last_q = Q[-1].copy()
+        motion = ArmMotion(
+            joint_names=self.arm.joint_names, q_rad=Q, branch=sol.branch,
+            min_manipulability_ratio=stats[0], min_limit_margin_rad=stats[1],
+            limit_margin_joint=stats[2], max_ik_error_m=stats[3],
+            phase_time_scale=tuple((n, float(s)) for n, s in zip(names, scales, strict=True)),
+            transfer_s=transfer[1], checked_states=checked + transfer[2],
+            branches_found=n_branches, joint_space_translate=joint_space,
+            transfer_q_rad=transfer[0])
+        return new_traj, motion
+
+    def _transfer(self, index: int, part: str, q_goal: np.ndarray, obstacles: Sequence[str],
+                  T_start: np.ndarray, T_final: np.ndarray, tool_radius_m: float,
+                  ompl: tuple[str, float, int]) -> tuple[np.ndarray, float, int]:
+        """The arm's move from its last state (the previous step's end) to ``q_goal`` (this
+        step's first state), gripper open, this part at its start: the straight joint move
+        when it is free, else an OMPL joint-space path; certified by conservative advancement
+        and timed rest-to-rest per leg. Returns the waypoints (M, 6), the time (s) and the
+        states checked; no previous state: no move."""
+        from .ompl_backend import plan_joint
+
+        ref = self.last_q
+        if ref is None:
+            return np.zeros((0, 6)), 0.0, 0
+        setup = _Phase("transfer", False, self.gripper_open)
+        self.scene.set_part_pose(part, T_start)
+        env = [*obstacles, part]
+
+        def free(q: np.ndarray) -> bool:
+            self._pose_all(q, setup, np.eye(4), part)
+            return not self._contacts(setup, env, part, tool_env=True)
+
+        def certify(W: np.ndarray) -> int:
+            return self._check_path(index, part, W, np.zeros(len(W), int), ["transfer"],
+                                    np.eye(4), obstacles, T_start, T_final,
+                                    self.rho(tool_radius_m), tool_env_phases=("transfer",))
+
+        W = np.array([ref, q_goal])
+        try:  # the straight joint move, certified, when it is free
+            checked = certify(W)
+        except ArmCollisionError as exc:
+            planner, budget, seed = ompl
+            res = plan_joint(free, ref, q_goal, self.arm.lower, self.arm.upper, planner=planner,
+                             time_budget_s=budget, seed=seed + 7907 * index,
+                             resolution_rad=0.01, try_direct=False)
+            if not res.solved:
+                raise ArmPathError(index, part, "transfer", f"the straight joint move from the "
+                                   f"previous step's last state is blocked ({exc}) and "
+                                   f"{planner} found no joint-space path in {budget:g} s "
+                                   f"({res.status})") from None
+            W = res.q_rad
+            self.scene.set_part_pose(part, T_start)
+            checked = certify(W)
+        time_s = sum(joint_move_s(a, b, self.arm.vmax, self.arm.amax)
+                     for a, b in itertools.pairwise(W))
+        return W, float(time_s), checked
+
+    def _joint_translate(self, index: int, part: str, traj: Trajectory, q0: np.ndarray,
+                         branch: str, T_tcp_part: np.ndarray, obstacles: Sequence[str],
+                         T_final: np.ndarray, tool_radius_m: float, max_tcp_speed_m_s: float,
+                         ompl: tuple[str, float, int]
+                         ) -> tuple[Trajectory, np.ndarray, tuple[float, float, str, float]]:
+        """The step with its translate phase planned in joint space (see :meth:`plan_step`)."""
+        from .ompl_backend import plan_joint
+        from .trajectory import min_jerk
+
+        t, T, F = traj.t_s, traj.T_world_gripper, traj.clamp_force_N
+        idx = traj.phase_indices_at(t)
+        names = [p.name for p in traj.phases]
+        ti = names.index("translate")
+        a_end = int(np.flatnonzero(idx == ti)[0])  # the lifted pose (the translate's start)
+        c_start = int(np.flatnonzero(idx > ti)[0])  # the pre-insertion pose
+        QA, sa = self._track_wrapped(index, part, T[:a_end + 1], idx[:a_end + 1], names, q0)
+        sols, _ = self.arm.ik_all(T[c_start])
+        same = [s for s in sols if s.branch == branch]
+        if not same:
+            raise ArmPathError(index, part, "translate", f"the pre-insertion pose has no IK "
+                               f"solution on the branch {branch}", T[c_start])
+        qc = min((self._near(s.q_rad, QA[-1]) for s in same),
+                 key=lambda q: float(np.abs(q - QA[-1]).sum()))
+        QC, sc = self._track_wrapped(index, part, T[c_start:], idx[c_start:], names, qc)
+        setup = _Phase("translate", True, self.gripper_closed)
+        env = list(obstacles)
+
+        def free(q: np.ndarray) -> bool:
+            self._pose_all(q, setup, T_tcp_part, part)
+            return not self._contacts(setup, env, part, tool_env=True)
+
+        planner, budget, seed = ompl
+        res = plan_joint(free, QA[-1], QC[0], self.arm.lower, self.arm.upper, planner=planner,
+                         time_budget_s=budget, seed=seed + 7919 * index, resolution_rad=0.01)
+        if not res.solved:
+            raise ArmPathError(index, part, "translate", f"{planner} found no joint-space path "
+                               f"from the lifted to the pre-insertion pose in {budget:g} s "
+                               f"({res.status})", T[a_end])
+        # rest-to-rest minimum-jerk legs within the joint limits, sampled every 10 ms, then
+        # slowed as a whole where the TCP would exceed its speed limit
+        qs = [res.q_rad[:1]]
+        times = [np.zeros(1)]
+        t_leg = 0.0
+        for qa, qb in itertools.pairwise(res.q_rad):
+            dur = joint_move_s(qa, qb, self.arm.vmax, self.arm.amax)
+            if dur <= 0:
+                continue
+            tau = np.linspace(0.0, 1.0, max(2, math.ceil(dur / 0.01) + 1))[1:]
+            qs.append(qa + np.outer(min_jerk(tau), qb - qa))
+            times.append(t_leg + dur * tau)
+            t_leg += dur
+        QT = np.concatenate(qs)
+        tt = np.concatenate(times)
+        TT = np.array([self.arm.fk(q) for q in QT])
+        if math.isfinite(max_tcp_speed_m_s) and len(TT) > 1:
+            from .trajectory import rotation_angle_rad
+
+            dp = np.linalg.norm(np.diff(TT[:, :3, 3], axis=0), axis=1)
+            rel = np.einsum("nji,njk->nik", TT[:-1, :3, :3], TT[1:, :3, :3])
+            speed = (dp + tool_radius_m * rotation_angle_rad(rel)) / np.diff(tt)
+            k = float(speed.max()) / max_tcp_speed_m_s
+            if k > 1.0:
+                tt = tt * k * (1 + 1e-9)
+        old_dur = traj.phases[ti].t_end_s - traj.phases[ti].t_start_s
+        new_dur = float(tt[-1])
+        shift = new_dur - old_dur
+        t0 = traj.phases[ti].t_start_s
+        t_new = np.concatenate([t[:a_end + 1], t0 + tt[1:-1], t[c_start:] + shift])
+        T_new = np.concatenate([T[:a_end + 1], TT[1:-1], T[c_start:]])
+        F_new = np.concatenate([F[:a_end + 1], np.full(len(TT) - 2, F[a_end]), F[c_start:]])
+        Q_new = np.concatenate([QA, QT[1:-1], QC])
+        phases = []
+        for p, ph in enumerate(traj.phases):
+            if p < ti:
+                phases.append(ph)
+            elif p == ti:
+                phases.append(PhaseSpan(ph.name, ph.t_start_s, ph.t_start_s + new_dur))
+            else:
+                phases.append(PhaseSpan(ph.name, ph.t_start_s + shift, ph.t_end_s + shift))
+        new = Trajectory(t_s=t_new, T_world_gripper=T_new, clamp_force_N=F_new,
+                         phases=tuple(phases))
+        stats = (min(sa[0], sc[0]), min(sa[1], sc[1]), sa[2] if sa[1] <= sc[1] else sc[2],
+                 max(sa[3], sc[3]))
+        for q in QT:  # the joint path's own margins
+            m, j = self.arm.limit_margin(q)
+            w = self.arm.manipulability(q) / self.arm.best_manipulability
+            stats = (min(stats[0], w), min(stats[1], m),
+                     self.arm.joint_names[j] if m < stats[1] else stats[2], stats[3])
+        return new, Q_new, stats
+
+    def _near(self, q: np.ndarray, ref: np.ndarray) -> np.ndarray:
+        """``q`` with each joint moved by 2 pi k (within the limits) nearest to ``ref``."""
+        out = q.copy()
+        for i in range(6):
+            cands = [q[i] + _TWO_PI * k for k in range(-2, 3)
+                     if self.arm.lower[i] <= q[i] + _TWO_PI * k <= self.arm.upper[i]]
+            # nearest to ref among those clear of the limits by the margin
+            m = self.settings.joint_limit_margin_rad
+            clear = [v for v in cands if self.arm.lower[i] + m <= v <= self.arm.upper[i] - m]
+            out[i] = min(clear or cands, key=lambda v, i=i: abs(v - ref[i]))
+        return out
+
+    def _track_wrapped(self, index: int, part: str, T: np.ndarray, phase_idx: np.ndarray,
+                       names: list[str], q0: np.ndarray
+                       ) -> tuple[np.ndarray, tuple[float, float, str, float]]:
+        """:meth:`_track`; when a joint whose range exceeds a turn runs into its limit, the
+        path is tracked again from the start angle one turn the other way (same branch)."""
+        q = q0.copy()
+        for _ in range(3):
+            try:
+                return self._track(index, part, T, phase_idx, names, q)
+            except JointLimitError as exc:
+                j = self.arm.joint_names.index(exc.joint)
+                shift = -_TWO_PI if exc.value_rad > self.arm.upper[j] - 1e-9 else _TWO_PI
+                if not (self.arm.lower[j] <= q[j] + shift <= self.arm.upper[j]):
+                    raise
+                q[j] += shift
+        return self._track(index, part, T, phase_idx, names, q)
+
+    def _track(self, index: int, part: str, T: np.ndarray, phase_idx: np.ndarray,
+               names: list[str], q0: np.ndarray) -> tuple[np.ndarray, tuple[float, float, str, float]]:
+        arm, s = self.arm, self.settings
+        n = len(T)
+        Q = np.empty((n, 6))
+        Q[0] = q0
+        q = q0
+        worst_w = math.inf
+        worst_m = (math.inf, 0)
+        max_err = 0.0
+        for k in range(n):
+            if k > 0 and np.array_equal(T[k], T[k - 1]):
+                Q[k] = q
+                continue
+            qn, ok = arm.solve(T[k], q, 30)
+            phase = names[int(phase_idx[k])]
+            if not ok:
+                raise ArmPathError(index, part, phase, f"inverse kinematics does not converge "
+                                   f"near the {phase}'s pose {k} (a singularity or the edge of "
+                                   "the workspace)", T[k])
+            jump = np.abs(qn - q)
+            if k > 0 and jump.max() > s.max_joint_jump_rad:
+                j = int(np.argmax(jump))
+                raise ArmPathError(index, part, phase, f"{arm.joint_names[j]} jumps "
+                                   f"{math.degrees(jump[j]):.1f} deg between two samples (a "
+                                   "branch change or a singularity)", T[k])
+            m, j = arm.limit_margin(qn)
+            if m < s.joint_limit_margin_rad:
+                raise JointLimitError(index, part, phase, arm.joint_names[j], float(qn[j]),
+                                      float(arm.lower[j]), float(arm.upper[j]), T[k],
+                                      along_path=True)
+            w = arm.manipulability(qn) / arm.best_manipulability
+            if w < s.min_manipulability_ratio:
+                raise ArmPathError(index, part, phase, f"manipulability {w * 100:.2f} % of the "
+                                   f"arm's best, below {s.min_manipulability_ratio * 100:.1f} % "
+                                   "(too close to a singularity)", T[k])
+            worst_w = min(worst_w, w)
+            if m < worst_m[0]:
+                worst_m = (m, j)
+            max_err = max(max_err, float(np.linalg.norm(arm.fk(qn)[:3, 3] - T[k][:3, 3])))
+            Q[k] = qn
+            q = qn
+        return Q, (worst_w, worst_m[0], arm.joint_names[worst_m[1]], max_err)
+
+    # -- collisions -------------------------------------------------------------------------
+    def _phase_setup(self, name: str) -> _Phase:
+        carried = name in ("clamp", "hold", "lift", "translate", "lower")
+        gripper = (self.gripper_open if name in ("approach", "retreat", "transfer")
+                   else self.gripper_closed)
+        return _Phase(name, carried, gripper)
+
+    def _check_path(self, index: int, part: str, Q: np.ndarray, phase_idx: np.ndarray,
+                    names: list[str], T_tcp_part: np.ndarray, obstacles: Sequence[str],
+                    T_start: np.ndarray, T_final: np.ndarray, rho: np.ndarray,
+                    tool_env_phases: Sequence[str] = ()) -> int:
+        """Conservative advancement along the joint path ``Q`` (N, 6), linear between
+        samples, parametrised by ``u`` in [0, N-1]. Each clearance ``d`` found at a state
+        (body against the cell, or two bodies of the chain) bounds the motion of the joints
+        that move those bodies relative to each other: the next state is where, for every
+        clearance, ``sum_j rho_j |dq_j|`` over its joints reaches ``d``."""
+        scene, s = self.scene, self.settings
+        checked = 0
+        dQ = np.abs(np.diff(Q, axis=0)) * rho  # (N-1, 6) travel bound per leg and joint
+        cums: dict[tuple[int, int], np.ndarray] = {}
+
+        def cum(mask: tuple[int, int]) -> np.ndarray:
+            c = cums.get(mask)
+            if c is None:
+                c = cums[mask] = np.concatenate([[0.0], np.cumsum(dQ[:, mask[0]:mask[1]].sum(
+                    axis=1))])
+            return c
+
+        last = len(Q) - 1
+
+        def advance(u: float, mask: tuple[int, int], d: float) -> float:
+            c = cum(mask)
+            k = min(int(u), last - 1)
+            target = c[k] + (u - k) * (c[k + 1] - c[k]) + d
+            i = int(np.searchsorted(c, target, side="right"))
+            if i > last:
+                return float(last)
+            return (i - 1) + (target - c[i - 1]) / (c[i] - c[i - 1])
+
+        # phase boundaries: the bodies to check change there, so a state is checked at each
+        bounds = [k for k in range(1, len(Q)) if phase_idx[k] != phase_idx[k - 1]]
+        starts = [0, *bounds]
+        for b, k0 in enumerate(starts):
+            k1 = starts[b + 1] if b + 1 < len(starts) else last
+            phase = names[int(phase_idx[k0])]
+            setup = self._phase_setup(phase)
+            if setup.carried:
+                env = list(obstacles)
+            else:
+                scene.set_part_pose(part, T_start if phase in ("approach", "transfer")
+                                    else T_final)
+                env = [*obstacles, part]
+            u = float(k0)
+            while True:
+                k = min(int(u), last - 1) if last > 0 else 0
+                f = u - k
+                q = Q[k] + f * (Q[k + 1] - Q[k]) if last > 0 else Q[0]
+                T_tcp = self.arm.fk(q)
+                tool_env = phase in tool_env_phases
+                limits = self._clearance(q, T_tcp, setup, env, T_tcp_part, part, tool_env)
+                checked += 1
+                if min(d for d, _ in limits) <= s.check_step_m:
+                    hit = self._contacts(setup, env, part, tool_env=tool_env)
+                    if hit:
+                        scene.set_part_pose(part, T_start)
+                        raise ArmCollisionError(index, part, phase, hit, q, T_tcp,
+                                                self.link_names)
+                if u >= k1 or last == 0:
+                    break
+                u_next = min(advance(u, mask, max(d, s.check_step_m)) for d, mask in limits)
+                u = min(float(k1), max(u_next, u + 1e-9))
+        scene.set_part_pose(part, T_start)
+        return checked
+
+    def _pose_all(self, q: np.ndarray, setup: _Phase, T_tcp_part: np.ndarray, part: str
+                  ) -> None:
+        """Poses of the links, the tool and the carried part at ``q`` for :meth:`_contacts`."""
+        T_tcp = self.arm.fk(q)
+        poses = dict(zip(self.bodies, self.arm.link_poses(q, self.links), strict=True))
+        poses[setup.gripper] = T_tcp
+        if setup.carried:
+            poses[part] = T_tcp @ T_tcp_part
+        self._poses = poses
+
+    def _clearance(self, q: np.ndarray, T_tcp: np.ndarray, setup: _Phase, env: Sequence[str],
+                   T_tcp_part: np.ndarray, part: str, tool_env: bool = False
+                   ) -> list[tuple[float, tuple[int, int]]]:
+        """Lower bounds of the clearances at ``q``, m, each with the joints (``lo``, ``hi``:
+        joints ``lo`` .. ``hi - 1``) whose motion can close it: every moving link against
+        the cell (joints up to the link's), and every checked pair of bodies
+        of the chain (the joints between them). Bounding boxes first; exact FCL distances
+        only for boxes closer than 2 cm. Leaves the poses for :meth:`_contacts`."""
+        scene, world = self.scene, self.scene.world
+        enough = 0.02
+        poses = dict(zip(self.bodies, self.arm.link_poses(q, self.links), strict=True))
+        poses[setup.gripper] = T_tcp
+        tool = [setup.gripper]
+        if setup.carried:
+            poses[part] = T_tcp @ T_tcp_part
+            tool.append(part)
+        self._poses = poses
+        depth = dict(self.joint_depth)
+        for t in tool:
+            depth[t] = 6
+        out = []
+        # the tool and the carried part against the cell: certified by the motion planner
+        # along its Cartesian path, checked here only where the arm planned in joint space
+        for b in [*self.moving_bodies, *(tool if tool_env else [])]:
+            out.append((scene.distance_bound([(b, poses[b])], env, enough), (0, depth[b])))
+        boxes = {b: scene.box_at(b, T) for b, T in poses.items()}
+        posed: set[str] = set()
+        for a, b in [*self.self_pairs_bodies(), *[(t, self.body[ln]) for t in tool
+                                                  for ln in self.tool_links]]:
+            mask = (min(depth[a], depth[b]), max(depth[a], depth[b]))
+            ba, bb = boxes[a], boxes[b]
+            gap = float(np.linalg.norm(np.maximum(0.0, np.maximum(bb[0] - ba[1], ba[0] - bb[1]))))
+            if gap >= enough:
+                out.append((gap, mask))
+                continue
+            for x in (a, b):
+                if x not in posed:
+                    world.set_pose(x, poses[x])
+                    posed.add(x)
+            out.append((world.distance(a, b), mask))
+        return out
+
+    def self_pairs_bodies(self) -> list[tuple[str, str]]:
+        return [(self.body[a], self.body[b]) for a, b in self.self_pairs]
+
+    def _contacts(self, setup: _Phase, env: Sequence[str], part: str, tool_env: bool = False
+                  ) -> list[CollidingPair]:
+        world, tol = self.scene.world, self.scene.tolerance_m
+        for b, T in self._poses.items():
+            world.set_pose(b, T)
+        out = []
+        moving = [self.body[ln] for ln in self.moving_links]
+        if tool_env:
+            moving += [setup.gripper] + ([part] if setup.carried else [])
+        for b in moving:
+            for o in env:
+                if world.in_collision(b, [o], tol):
+                    out.append(CollidingPair(b, o))
+        tool = [setup.gripper] + ([part] if setup.carried else [])
+        for t in tool:
+            for ln in self.tool_links:
+                if world.in_collision(self.body[ln], [t], tol):
+                    out.append(CollidingPair(self.body[ln], t))
+        for a, b in self.self_pairs_bodies():
+            if world.in_collision(a, [b], tol):
+                out.append(CollidingPair(a, b))
+        return out
+
+
+@cache
+def _read_urdf(path: Path, flange: str):
+    from ..knowledge.robot import read_urdf_arm
+
+    return read_urdf_arm(path, flange)
+
+
+# ---------------------------------------------------------------------------------------------
+# Timing within the joint limits
+# ---------------------------------------------------------------------------------------------
+def joint_rates(t: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Finite-difference joint velocities (N-1, 6) and accelerations (N-2, 6) of samples
+    ``Q`` (N, 6) at times ``t`` (N,)."""
+    dt = np.diff(t)
+    v = np.diff(Q, axis=0) / dt[:, None]
+    tm = 0.5 * (t[1:] + t[:-1])
+    a = np.diff(v, axis=0) / np.diff(tm)[:, None]
+    return v, a
+
+
+def retime(traj: Trajectory, Q: np.ndarray, vmax: np.ndarray, amax: np.ndarray
+           ) -> tuple[Trajectory, np.ndarray]:
+    """Stretch each phase's time axis by its factor ``k >= 1`` so that the joint velocities
+    and accelerations of ``Q`` (the IK solutions at ``traj``'s samples) keep within ``vmax``
+    and ``amax``. Returns the retimed trajectory (same poses and forces) and the factors."""
+    t = traj.t_s
+    idx = traj.phase_indices_at(t)
+    scales = np.ones(len(traj.phases))
+    for p in range(len(traj.phases)):
+        sel = np.flatnonzero(idx == p)
+        if len(sel) < 2:
+            continue
+        lo = max(0, sel[0] - 1)  # the boundary sample before the phase (it starts there)
+        seg = slice(lo, sel[-1] + 1)
+        v, a = joint_rates(t[seg], Q[seg])
+        kv = float((np.abs(v) / vmax).max()) if len(v) else 0.0
+        ka = math.sqrt(float((np.abs(a) / amax).max())) if len(a) else 0.0
+        k = max(kv, ka)
+        scales[p] = k * (1.0 + 1e-9) if k > 1.0 else 1.0  # the margin covers rounding
+    if np.all(scales == 1.0):
+        return traj, scales
+    new_t = np.empty_like(t)
+    starts_old = np.array([ph.t_start_s for ph in traj.phases])
+    durs = np.array([ph.t_end_s - ph.t_start_s for ph in traj.phases]) * scales
+    starts_new = t[0] + np.concatenate([[0.0], np.cumsum(durs)[:-1]])
+    for i in range(len(t)):
+        p = int(idx[i])
+        new_t[i] = starts_new[p] + scales[p] * (t[i] - starts_old[p])
+    phases = tuple(PhaseSpan(ph.name, float(starts_new[p]), float(starts_new[p] + durs[p]))
+                   for p, ph in enumerate(traj.phases))
+    new_t[-1] = phases[-1].t_end_s
+    out = Trajectory(t_s=new_t, T_world_gripper=traj.T_world_gripper,
+                     clamp_force_N=traj.clamp_force_N, phases=phases)
+    return out, scales
+
+
+def joint_move_s(q0: np.ndarray, q1: np.ndarray, vmax: np.ndarray, amax: np.ndarray) -> float:
+    """Duration of a synchronised rest-to-rest minimum-jerk joint move, s (the slowest joint
+    at its limits)."""
+    return max(min_jerk_duration_s(abs(float(d)), float(v), float(a))
+               for d, v, a in zip(np.asarray(q1) - np.asarray(q0), vmax, amax, strict=True))
+
+
+# ---------------------------------------------------------------------------------------------
+# For the report: the arm's links posed at given joint angles
+# ---------------------------------------------------------------------------------------------
+@cache
+def _display_arm(robot: Robot) -> tuple[ArmModel, tuple[str, ...], dict[str, CollisionModel]]:
+    model = ArmModel(robot, ArmSettings())
+    urdf = _read_urdf(Path(robot.urdf_path), robot.flange_link)  # type: ignore[arg-type]
+    models = link_models(urdf)
+    return model, tuple(ln for ln in urdf.links if ln in models), models
+
+
+def posed_links(robot: Robot, q_rad: np.ndarray) -> list[tuple[str, CollisionModel, np.ndarray]]:
+    """(link name, collision model, world pose (4, 4)) of every link with geometry at
+    ``q_rad`` (6,), for drawing the arm."""
+    model, links, models = _display_arm(robot)
+    poses = model.link_poses(np.asarray(q_rad, float), links)
+    return [(ln, models[ln], T) for ln, T in zip(links, poses, strict=True)]
+
+
+def reach_facts(robot: Robot) -> tuple[np.ndarray, float]:
+    """The shoulder's world position (3,) and the reach (the stated one, else measured), m."""
+    model, _, _ = _display_arm(robot)
+    shoulder = (model.T_world_base @ np.append(model.shoulder_base, 1.0))[:3]
+    return shoulder, float(model.reach_m)

@@ -1,0 +1,232 @@
+"""The arm in the cell: kinematics against an independent FK, IK round trips over every branch,
+reach, joint-limit and arm-collision failures with their evidence, joint-limited timing, and
+every example planned with its arm."""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from asmplan.examples import __file__ as _examples_init
+from asmplan.knowledge.frames import make_T
+from asmplan.knowledge.loader import load_product
+from asmplan.knowledge.robot import JointLimit, bundled_urdf
+from asmplan.planner.arm import ArmModel, joint_rates
+from asmplan.planner.errors import ArmCollisionError, JointLimitError, OutOfReachError
+from asmplan.planner.motion import plan_product
+from asmplan.planner.plan import ArmSettings, Plan
+
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "arm"
+EXAMPLES = Path(_examples_init).parent
+
+
+@pytest.fixture(scope="module")
+def arm() -> ArmModel:
+    product = load_product(EXAMPLES / "pinhole_station.yaml")
+    return ArmModel(product.resources.robot, ArmSettings())
+
+
+def _urdf_fk(q: np.ndarray) -> np.ndarray:
+    """Flange pose of the xArm 6 in its base frame, composed straight from the URDF's joint
+    origins and z axes (no pinocchio)."""
+    root = ET.parse(bundled_urdf("xarm6")).getroot()
+    T = np.eye(4)
+    k = 0
+    for j in root.findall("joint"):
+        o = j.find("origin")
+        T = T @ make_T([float(v) for v in o.get("xyz").split()],
+                       [float(v) for v in o.get("rpy").split()])
+        if j.get("type") == "revolute":
+            assert j.find("axis").get("xyz").split() == ["0", "0", "1"]
+            T = T @ make_T(rpy_rad=(0.0, 0.0, q[k]))
+            k += 1
+    assert k == 6
+    return T
+
+
+def test_fk_matches_the_urdf_chain_composed_by_hand(arm: ArmModel) -> None:
+    rng = np.random.default_rng(3)
+    base_inv = np.linalg.inv(arm.T_world_base)
+    for q in rng.uniform(np.maximum(arm.lower, -3), np.minimum(arm.upper, 3), size=(20, 6)):
+        T_base_flange = base_inv @ arm.fk(q) @ np.linalg.inv(arm.T_flange_tcp)
+        assert np.abs(T_base_flange - _urdf_fk(q)).max() < 1e-9
+
+
+def test_ik_round_trip_every_branch(arm: ArmModel) -> None:
+    """FK(IK(T)) = T to 1 um and 1e-6 rad on every branch found, all branches distinct and
+    within the limits, and the configuration T came from among them."""
+    rng = np.random.default_rng(7)
+    found_origin = 0
+    trials = 0
+    for q in rng.uniform(np.maximum(arm.lower, -3), np.minimum(arm.upper, 3), size=(40, 6)):
+        if arm.manipulability(q) / arm.best_manipulability < 0.02:
+            continue  # near a singularity the branches merge
+        trials += 1
+        T = arm.fk(q)
+        sols, fail = arm.ik_all(T)
+        assert fail is None and sols
+        for s in sols:
+            E = np.linalg.inv(T) @ arm.fk(s.q_rad)
+            assert np.linalg.norm(E[:3, 3]) < 1e-6
+            assert math.acos(np.clip((np.trace(E[:3, :3]) - 1) / 2, -1, 1)) < 2e-6
+            assert np.all(s.q_rad >= arm.lower) and np.all(s.q_rad <= arm.upper)
+        for a, b in itertools.combinations(sols, 2):
+            assert np.abs((a.q_rad - b.q_rad + np.pi) % (2 * np.pi) - np.pi).max() > 1e-3
+        diffs = [np.abs((s.q_rad - q + np.pi) % (2 * np.pi) - np.pi).max() for s in sols]
+        found_origin += min(diffs) < 1e-4
+    assert trials >= 20
+    assert found_origin >= 0.9 * trials, f"{found_origin} of {trials}"
+
+
+def test_a_pose_has_several_branches(arm: ArmModel) -> None:
+    """Above the table in front of the arm: shoulder, elbow and wrist variants exist."""
+    T = arm.fk(np.array([0.3, -0.2, -0.9, 0.1, 0.8, 0.2]))
+    sols, _ = arm.ik_all(T)
+    labels = {s.branch for s in sols}
+    assert len(sols) >= 3 and len(labels) >= 3, labels
+    assert {"noflip", "flip"} <= {lab.split("/")[2] for lab in labels}
+
+
+def test_tray_beyond_reach_fails_with_distance_and_reach() -> None:
+    product = load_product(FIXTURES / "far_tray.yaml")
+    with pytest.raises(OutOfReachError, match=r"pick pose of peg is \d+ mm from the arm's "
+                                              r"shoulder, reach 700 mm") as info:
+        plan_product(product)
+    err = info.value
+    arm = ArmModel(product.resources.robot, ArmSettings())
+    # the flange above the pick pose, measured from the shoulder by hand
+    flange = err.T_world_tcp @ np.linalg.inv(arm.T_flange_tcp)
+    shoulder = arm.T_world_base @ np.array([0.0, 0.0, 0.267, 1.0])
+    expected = float(np.linalg.norm(flange[:3, 3] - shoulder[:3]))
+    assert err.distance_m == pytest.approx(expected, abs=1e-9)
+    # the tray at x = 900 mm, the shoulder at (-200, -120, 267) mm: about 1.1 m
+    assert 1.05 < err.distance_m < 1.2
+    assert err.reach_m == pytest.approx(0.7)
+    assert err.evidence()["kind"] == "out_of_reach"
+
+
+def test_grasp_beyond_a_joint_limit_fails_naming_the_joint() -> None:
+    product = load_product(FIXTURES / "joint_limited.yaml")
+    j1 = product.resources.robot.joints[0]
+    assert (math.degrees(j1.lower_rad), math.degrees(j1.upper_rad)) == pytest.approx((-30, 30))
+    with pytest.raises(JointLimitError, match=r"joint1 at 90\.0 deg, beyond its limits "
+                                              r"\[-30\.0, 30\.0\] deg") as info:
+        plan_product(product)
+    err = info.value
+    assert err.joint == "joint1"
+    # the tray is straight to the left of the base (+y): joint 1 must face 90 deg
+    assert math.degrees(err.value_rad) == pytest.approx(90.0, abs=0.1)
+
+
+def test_forearm_through_a_fixture_fails_naming_the_pair() -> None:
+    product = load_product(FIXTURES / "column.yaml")
+    with pytest.raises(ArmCollisionError, match=r"(upper arm|forearm) \(arm:link\d\) hits "
+                                                 r"column") as info:
+        plan_product(product)
+    pairs = {(p.a, p.b) for p in info.value.pairs}
+    assert any(a.startswith("arm:link") and b == "column" for a, b in pairs)
+    # without the column the same cell plans
+    free = dataclasses.replace(product, parts=tuple(p for p in product.parts
+                                                    if p.name != "column"),
+                               resources=dataclasses.replace(
+                                   product.resources,
+                                   fixtures=product.resources.fixtures[:1]))
+    plan = plan_product(free).plan
+    assert plan.step("peg").arm is not None
+
+
+def _slow_joints(product, velocity_rad_s: float, acceleration_rad_s2: float):
+    robot = product.resources.robot
+    joints = tuple(JointLimit(j.name, j.lower_rad, j.upper_rad, velocity_rad_s,
+                              acceleration_rad_s2) for j in robot.joints)
+    robot = dataclasses.replace(robot, joints=joints)
+    return dataclasses.replace(product, resources=dataclasses.replace(product.resources,
+                                                                      robot=robot))
+
+
+def test_trajectory_is_retimed_within_the_joint_limits() -> None:
+    product = load_product(EXAMPLES / "peg_in_hole.yaml")
+    fast = plan_product(product).plan.step("peg")
+    v, a = 0.3, 1.0
+    slow = plan_product(_slow_joints(product, v, a)).plan.step("peg")
+    # the Cartesian timing alone breaks the slower joints' limits ...
+    vel, acc = joint_rates(fast.trajectory.t_s, fast.arm.q_rad)
+    assert np.abs(vel).max() > v * 1.2
+    # ... the arm's timing keeps them (same path, phases stretched)
+    vel, acc = joint_rates(slow.trajectory.t_s, slow.arm.q_rad)
+    assert np.abs(vel).max() <= v * (1 + 1e-6)
+    assert np.abs(acc).max() <= a * (1 + 1e-6)
+    assert np.array_equal(slow.trajectory.T_world_gripper, fast.trajectory.T_world_gripper)
+    assert slow.trajectory.duration_s > fast.trajectory.duration_s
+    scales = dict(slow.arm.phase_time_scale)
+    assert scales["clamp"] == 1.0 and max(scales.values()) > 1.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["pinhole_station", "peg_in_hole", "gear_unit"])
+def test_every_example_plans_with_its_arm(name: str, tmp_path: Path) -> None:
+    product = load_product(EXAMPLES / f"{name}.yaml")
+    assert product.resources.robot is not None
+    plan = plan_product(product).plan
+    arm = ArmModel(product.resources.robot, ArmSettings())
+    moved = [s for s in plan.steps if s.kind != "fixture"]
+    assert moved
+    for s in moved:
+        assert s.arm is not None and s.arm.q_rad.shape == (len(s.trajectory.t_s), 6)
+        # the simulated gripper follows the arm's TCP: FK of the joint path is the trajectory
+        for k in range(0, len(s.trajectory.t_s), 7):
+            assert np.linalg.norm(arm.fk(s.arm.q_rad[k])[:3, 3]
+                                  - s.trajectory.T_world_gripper[k][:3, 3]) < 1.5e-6
+        assert np.all(s.arm.q_rad >= arm.lower - 1e-9) and np.all(s.arm.q_rad <= arm.upper + 1e-9)
+        vel, acc = joint_rates(s.trajectory.t_s, s.arm.q_rad)
+        assert np.all(np.abs(vel) <= arm.vmax * (1 + 1e-6))
+        assert np.all(np.abs(acc) <= arm.amax * (1 + 1e-6))
+        assert s.cycle_time_s == pytest.approx(s.trajectory.duration_s + s.arm.transfer_s)
+    # the arm's moves between steps join one step's last state to the next one's first
+    for prev, s in itertools.pairwise(moved):
+        W = s.arm.transfer_q_rad
+        assert len(W) >= 2
+        assert np.abs(W[0] - prev.arm.q_rad[-1]).max() < 1e-12
+        assert np.abs(W[-1] - s.arm.q_rad[0]).max() < 1e-12
+        assert s.arm.transfer_s > 0
+    assert len(moved[0].arm.transfer_q_rad) == 0 and moved[0].arm.transfer_s == 0
+    assert plan.cycle_time_s == pytest.approx(sum(s.cycle_time_s for s in plan.steps))
+    # the plan file carries the joint trajectories
+    path = plan.write(tmp_path / "plan.json")
+    back = Plan.read(path)
+    for a, b in zip(plan.steps, back.steps, strict=True):
+        if a.arm is not None:
+            assert np.abs(a.arm.q_rad - b.arm.q_rad).max() < 1e-8
+            assert a.arm.branch == b.arm.branch
+
+
+def test_transfer_the_arm_cannot_follow_is_planned_in_joint_space() -> None:
+    """The tray lies behind the arm: the gripper's planned straight transfer would sweep
+    through the arm's own base; OMPL plans the transfer in joint space (the base turns) and
+    the gripper follows FK of that path."""
+    product = load_product(FIXTURES / "behind.yaml")
+    step = plan_product(product).plan.step("peg")
+    a = step.arm
+    assert a.joint_space_translate
+    assert any("planned in joint space" in n for n in step.notes)
+    arm = ArmModel(product.resources.robot, ArmSettings())
+    traj = step.trajectory
+    idx = traj.phase_indices_at(traj.t_s)
+    names = [p.name for p in traj.phases]
+    sel = np.flatnonzero(idx == names.index("translate"))
+    # the base turns about half a turn between the tray (-x of the base) and the vise (+x)
+    turn = abs(a.q_rad[sel[-1], 0] - a.q_rad[sel[0], 0])
+    assert math.degrees(turn) == pytest.approx(180.0, abs=20.0)
+    for k in sel[::10]:
+        assert np.linalg.norm(arm.fk(a.q_rad[k])[:3, 3] - traj.T_world_gripper[k][:3, 3]) < 1e-9
+    assert np.array_equal(step.path_T_world_gripper, traj.T_world_gripper[sel])
+    assert np.all(a.q_rad >= arm.lower) and np.all(a.q_rad <= arm.upper)
+    vel, acc = joint_rates(traj.t_s, a.q_rad)
+    assert np.all(np.abs(vel) <= arm.vmax * (1 + 1e-6))
+    assert np.all(np.abs(acc) <= arm.amax * (1 + 1e-6))
