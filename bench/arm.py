@@ -23,9 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from asmplan.knowledge.loader import load_product
+from asmplan.parts.models import ProductGeometry
 from asmplan.planner.arm import ArmModel
-from asmplan.planner.motion import plan_product
 from asmplan.planner.plan import PlannerSettings
+from asmplan.planner.product import plan_product
 
 EXAMPLES = ("pinhole_station", "peg_in_hole", "gear_unit")
 
@@ -68,7 +69,7 @@ def bench_arm(products: Sequence[str] = EXAMPLES, runs: int = 5, log=None) -> li
         plan = None
         for _ in range(runs):
             for which, prod in (("arm", product), ("free", free)):
-                res = plan_product(prod, settings)
+                res = plan_product(prod, ProductGeometry(prod), settings)
                 times = [t for t, s in zip(res.step_times, res.plan.steps, strict=True)
                          if s.kind != "fixture"]
                 (arm_ms if which == "arm" else free_ms).extend(1e3 * t.total_s for t in times)

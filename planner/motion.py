@@ -87,7 +87,6 @@ from .timing import (
     StepMotion,
     clamp_force,
     motion_limits,
-    path_poses,
     time_step,
 )
 
@@ -500,7 +499,9 @@ class MotionPlanner:
             except ArmError as exc:
                 raise _GraspFailed(str(exc), exc) from None
             if arm_motion.joint_space_translate:  # the TCP follows the arm's joint path
-                path = path_poses(traj, ["translate"])
+                sel = traj.phase_indices_at(traj.t_s) == [p.name for p in traj.phases].index(
+                    "translate")
+                path = traj.T_world_gripper[sel]
         notes = []
         if arm_motion is not None and arm_motion.joint_space_translate:
             notes.append("the arm cannot follow the planned Cartesian transfer; it was planned "

@@ -17,12 +17,17 @@ from asmplan.examples import __file__ as _examples_init
 from asmplan.knowledge.frames import make_T
 from asmplan.knowledge.loader import load_product
 from asmplan.knowledge.robot import JointLimit, bundled_urdf
+from asmplan.parts.models import ProductGeometry
 from asmplan.planner.arm import ArmModel, joint_rates
 from asmplan.planner.errors import ArmCollisionError, JointLimitError, OutOfReachError
-from asmplan.planner.motion import plan_product
 from asmplan.planner.plan import ArmSettings, Plan
+from asmplan.planner.product import plan_product as _plan_product
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "arm"
+
+
+def plan_product(product, settings=None):
+    return _plan_product(product, ProductGeometry(product), settings)
 EXAMPLES = Path(_examples_init).parent
 
 
