@@ -51,7 +51,7 @@ class ArmBenchRow:
 def _example(name: str):
     from importlib import resources
 
-    return load_product(resources.files("asmplan.examples").joinpath(f"{name}.yaml"))
+    return load_product(str(resources.files("asmplan.examples").joinpath(f"{name}.yaml")))
 
 
 def bench_arm(products: Sequence[str] = EXAMPLES, runs: int = 5, log=None) -> list[ArmBenchRow]:
@@ -85,6 +85,7 @@ def bench_arm(products: Sequence[str] = EXAMPLES, runs: int = 5, log=None) -> li
         for step in plan.steps:
             if step.arm is None:
                 continue
+            assert step.trajectory is not None
             T = step.trajectory.T_world_gripper
             q = step.arm.q_rad[0]
             for k in range(1, len(T)):

@@ -195,7 +195,7 @@ def read_urdf_arm(path: Path, flange: str | None = None) -> UrdfArm:
     if root.tag != "robot":
         raise UrdfError(f"expected a URDF file whose root element is <robot>, found <{root.tag}> "
                         f"in {path.name}")
-    links = {el.get("name"): el for el in root.findall("link")}
+    links = {str(el.get("name")): el for el in root.findall("link")}
     joints = root.findall("joint")
     child_of: dict[str, ET.Element] = {}
     children: dict[str, list[ET.Element]] = {}
@@ -204,8 +204,8 @@ def read_urdf_arm(path: Path, flange: str | None = None) -> UrdfArm:
         if p is None or c is None:
             raise UrdfError(f'expected <parent> and <child> in joint "{j.get("name")}" of '
                             f"{path.name}, found none")
-        child_of[c.get("link", "")] = j
-        children.setdefault(p.get("link", ""), []).append(j)
+        child_of[str(c.get("link", ""))] = j
+        children.setdefault(str(p.get("link", "")), []).append(j)
     roots = [n for n in links if n not in child_of]
     if len(roots) != 1:
         raise UrdfError(f"expected one root link in {path.name}, found {len(roots)}: "
@@ -221,7 +221,7 @@ def read_urdf_arm(path: Path, flange: str | None = None) -> UrdfArm:
                                 f'"{chain_links[-1]}" branching into {len(kids)} joints; name '
                                 f"the flange link (resources.robot.flange)")
             nxt = (moving or kids)[0]
-            chain_links.append(nxt.find("child").get("link"))  # type: ignore[union-attr]
+            chain_links.append(str(nxt.find("child").get("link")))  # type: ignore[union-attr]
         flange = chain_links[-1]
     if flange not in links:
         from .errors import did_you_mean
@@ -229,12 +229,13 @@ def read_urdf_arm(path: Path, flange: str | None = None) -> UrdfArm:
         raise UrdfError(f'expected the flange to be a link of {path.name}, found unknown link '
                         f'"{flange}"{did_you_mean(flange, [str(n) for n in links])}')
     chain: list[ET.Element] = []
-    link = flange
+    link: str = flange
     while link in child_of:
         chain.append(child_of[link])
-        link = child_of[link].find("parent").get("link")  # type: ignore[union-attr]
+        link = str(child_of[link].find("parent").get("link"))  # type: ignore[union-attr]
     chain.reverse()
-    chain_links = [link, *[j.find("child").get("link") for j in chain]]  # type: ignore[union-attr]
+    chain_links = [str(link), *[str(j.find("child").get("link"))  # type: ignore[union-attr]
+                                for j in chain]]
     moving = [j for j in chain if j.get("type") != "fixed"]
     bad = [j for j in moving if j.get("type") not in ("revolute", "continuous")]
     if bad:

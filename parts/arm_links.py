@@ -53,7 +53,7 @@ def _mesh_groups(path: Path) -> tuple[np.ndarray, ...]:
     import trimesh
 
     mesh = trimesh.load(str(path), force="mesh", process=False)
-    return (np.asarray(mesh.vertices, dtype=float),)
+    return (np.asarray(mesh.vertices, dtype=float),)  # type: ignore[attr-defined]
 
 
 def _pieces(c: UrdfCollision) -> list[ConvexPiece]:

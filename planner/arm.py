@@ -254,7 +254,7 @@ class ArmModel:
         out = []
         for sh, el, wr in itertools.product((0.0, math.pi), (-0.6, 0.6), (-1.0, 1.0)):
             q = mid.copy()
-            q[0] = _wrap(phi + sh)
+            q[0] = float(_wrap(np.asarray(phi + sh)))
             q[1] = mid[1] + (0.4 if sh == 0 else -0.4)
             q[2] = self.elbow_ref + el
             q[4] = self.wrist_ref + wr
@@ -749,7 +749,8 @@ class ArmPlanner:
             # nearest to ref among those clear of the limits by the margin
             m = self.settings.joint_limit_margin_rad
             clear = [v for v in cands if self.arm.lower[i] + m <= v <= self.arm.upper[i] - m]
-            out[i] = min(clear or cands, key=lambda v, i=i: abs(v - ref[i]))
+            r = float(ref[i])
+            out[i] = min(clear or cands, key=lambda v: abs(v - r))
         return out
 
     def _track_wrapped(self, index: int, part: str, T: np.ndarray, phase_idx: np.ndarray,

@@ -167,7 +167,7 @@ class ArmMotion:
                 "transfer_s": float(self.transfer_s), "checked_states": int(self.checked_states),
                 "branches_found": int(self.branches_found),
                 "joint_space_translate": bool(self.joint_space_translate),
-                "transfer_q_rad": self.transfer_q_rad.round(9).tolist()}
+                "transfer_q_rad": np.asarray(self.transfer_q_rad).round(9).tolist()}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> ArmMotion:

@@ -192,7 +192,9 @@ def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True)
     if arm is not None and render_images:
         from ..planner.arm import reach_facts
 
-        shoulder, reach = reach_facts(inp.product.resources.robot)
+        robot = inp.product.resources.robot
+        assert robot is not None  # the arm block exists only with an arm
+        shoulder, reach = reach_facts(robot)
         plots.reach_plot(inp.product, inp.plan, shoulder, reach, folder / "cell-reach.png")
         arm["reach_image"] = "cell-reach.png"
     success = (inp.results is not None and inp.results.success and not inp.failure)

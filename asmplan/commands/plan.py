@@ -130,8 +130,9 @@ def run(args: argparse.Namespace) -> int:
           f"(part geometry {result.geometry_s:.2f} s; order: {result.plan.sequence_note}); "
           f"plan written to {args.output}")
     print(summary_table(result.plan, ms))
-    if any(s.arm is not None for s in result.plan.steps):
-        print(f"cycle time with the arm ({product.resources.robot.model}): "
+    robot = product.resources.robot
+    if robot is not None and any(s.arm is not None for s in result.plan.steps):
+        print(f"cycle time with the arm ({robot.model}): "
               f"{result.plan.cycle_time_s:.2f} s; per step: " + ", ".join(
                   f"{s.part} {s.cycle_time_s:.2f} s" for s in result.plan.steps
                   if s.trajectory is not None))
