@@ -106,12 +106,16 @@ class Views:
 
         if not hasattr(self, "_arm_meshes"):
             self._arm_meshes: dict[str, trimesh.Trimesh] = {}
-        items = []
+        # one mesh for the whole arm: one draw call, so the renderer's draw order between
+        # overlapping link hulls cannot change pixels from run to run
+        meshes = []
         for name, model, T in posed_links(robot, q_rad):
             if name not in self._arm_meshes:
                 self._arm_meshes[name] = pieces_mesh(model)
-            items.append(SceneItem(self._arm_meshes[name], T, ARM_RGBA, name=f"arm:{name}"))
-        return items
+            m = self._arm_meshes[name].copy()
+            m.apply_transform(T)
+            meshes.append(m)
+        return [SceneItem(trimesh.util.concatenate(meshes), np.eye(4), ARM_RGBA, name="arm")]
 
     def table_item(self, items: Sequence[SceneItem]) -> SceneItem:
         """A thin slab under the items (the table top, z <= 0), only as large as needed."""
