@@ -115,7 +115,8 @@ class Views:
             m = self._arm_meshes[name].copy()
             m.apply_transform(T)
             meshes.append(m)
-        return [SceneItem(trimesh.util.concatenate(meshes), np.eye(4), ARM_RGBA, name="arm")]
+        arm: trimesh.Trimesh = trimesh.util.concatenate(meshes)  # type: ignore[assignment]
+        return [SceneItem(arm, np.eye(4), ARM_RGBA, name="arm")]
 
     def table_item(self, items: Sequence[SceneItem]) -> SceneItem:
         """A thin slab under the items (the table top, z <= 0), only as large as needed."""
