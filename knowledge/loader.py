@@ -37,6 +37,7 @@ from .model import (
     PinAdd,
     Precedence,
     PrecedenceRule,
+    Press,
     Primitive,
     Process,
     Product,
@@ -168,6 +169,7 @@ MATE = Map({
     "clearance": Field(OneOf({(int, float): Num("length"), dict: CLEARANCE_RANGE},
                              expected="a diametral clearance (a length or {min, max})")),
     "interference": Field(Num("length", positive=True)),
+    "hub_diameter": Field(Num("length", positive=True)),
 }, name="a mate")
 RULE = Map({"before": Field(Str(expected="a part name"), required=True),
             "after": Field(Str(expected="a part name"), required=True),
@@ -243,10 +245,14 @@ RESOURCES = Map({
                                   "kind": Field(Str(), default="vise")}, name="a fixture")),
                       default=[]),
     "robot": Field(ROBOT),
+    "press": Field(Map({"max_force": Field(Num(positive=True), required=True)},
+                       name="a press (its max_force in N)")),
 }, name="resources")
 MATERIAL = Map({"density": Field(Num("density", positive=True), required=True),
                 "friction": Field(Num(nonnegative=True, maximum=10.0), required=True),
-                "color": Field(COLOR)}, name="a material")
+                "color": Field(COLOR),
+                "elastic_modulus_gpa": Field(Num(positive=True)),
+                "poisson_ratio": Field(Num(nonnegative=True, maximum=0.4999))}, name="a material")
 UNITS = Map({"length": Field(Str(tuple(LENGTH_UNITS)), default="mm"),
              "mass": Field(Str(tuple(MASS_UNITS)), default="kg"),
              "angle": Field(Str(tuple(ANGLE_UNITS)), default="deg")}, name="units")
@@ -397,8 +403,10 @@ class _Builder:
         materials = dict(builtin_materials())
         for name, m in (top.get("materials") or {}).items() if top.get("materials") else []:
             if m is not INVALID:
+                E = m["elastic_modulus_gpa"]
                 materials[name] = Material(name, m["density"], m["friction"],
-                                           tuple(m["color"]) if m["color"] else (0.7, 0.7, 0.7))
+                                           tuple(m["color"]) if m["color"] else (0.7, 0.7, 0.7),
+                                           None if E is None else E * 1e9, m["poisson_ratio"])
         raw_parts = data.get("parts") if isinstance(data.get("parts"), list) else []
         # every part name written down, even in a part that is otherwise invalid, so that
         # cross-references to it are not reported as unknown on top of the real error
@@ -625,7 +633,7 @@ class _Builder:
                           if val is not None and val is not INVALID})
 
     def build_resources(self, v: dict[str, Any]) -> Resources | None:
-        if any(v.get(k) is INVALID for k in ("gripper", "table", "fixtures", "robot")):
+        if any(v.get(k) is INVALID for k in ("gripper", "table", "fixtures", "robot", "press")):
             return None
         g = v["gripper"]
         if g["min_force"] > g["max_force"]:
@@ -646,7 +654,8 @@ class _Builder:
         table = Table(np.asarray(v["table"]["size"]), v["table"]["friction"])
         fixtures = tuple(Fixture(f["name"], f["holds"], f["kind"]) for f in v["fixtures"])
         robot = build_robot(v["robot"], self.base_dir, self.err) if v["robot"] else None
-        return Resources(gripper, table, fixtures, robot)
+        press = Press(float(v["press"]["max_force"])) if v.get("press") else None
+        return Resources(gripper, table, fixtures, robot, press=press)
 
     def check_part_ref(self, name: str, path: PathKey) -> bool:
         if name in self.known_names:
@@ -656,6 +665,7 @@ class _Builder:
         return False
 
     def build_mates(self, raw: Any, parts: dict[str, Part]) -> list[Mate]:
+        mm_per_m = 1e3
         mates: list[Mate] = []
         if not isinstance(raw, list):
             return mates
@@ -687,8 +697,15 @@ class _Builder:
             clearance = self.mate_clearance(v, path, pin, hole)
             if clearance is None:
                 continue
+            hub = v["hub_diameter"]
+            if hub is not None and hub <= hole.diameter_m:
+                self.err((*path, "hub_diameter"), f"expected a hub diameter larger than the hole "
+                         f"{hole.ref} ({hole.diameter_m * mm_per_m:g} mm), found "
+                         f"{hub * mm_per_m:g} mm")
+                continue
             mates.append(Mate(name, pin.part, pin.name, hole.part, hole.name, *clearance,
-                              fit=iso286_normal(v["fit"]) if v["fit"] else None))
+                              fit=iso286_normal(v["fit"]) if v["fit"] else None,
+                              hub_diameter_m=hub))
         return mates
 
     def mate_clearance(self, v: dict[str, Any], path: PathKey, pin: Feature, hole: Feature

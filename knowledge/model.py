@@ -133,7 +133,9 @@ class Mate:
     """A pin (or shaft) seated in a hole (or bore), with its diametral clearance range.
 
     ``clearance_min_m``/``clearance_max_m`` are hole minus pin diameter; negative means
-    interference. ``fit`` is the ISO 286 designation when one was given.
+    interference. ``fit`` is the ISO 286 designation when one was given. ``hub_diameter_m``
+    is the outer diameter of the hub around the hole when declared (press fits; otherwise it
+    is measured on the hole part's solid, see :mod:`asmplan.parts.press_fit`).
     """
 
     name: str
@@ -144,6 +146,7 @@ class Mate:
     clearance_min_m: float
     clearance_max_m: float
     fit: str | None = None
+    hub_diameter_m: float | None = None
 
     @property
     def kind(self) -> Literal["clearance", "transition", "interference"]:
@@ -332,12 +335,27 @@ class Robot:
     joints: tuple[JointLimit, ...] = ()
 
 
+@dataclass(frozen=True)
+class Press:
+    """An axial press in the cell: ``max_force_N`` is the largest force its ram applies.
+
+    With a press, a step whose mate needs more force than the gripper can push is a press
+    operation (see :mod:`asmplan.planner.press`)."""
+
+    max_force_N: float
+
+    def __post_init__(self) -> None:
+        if not self.max_force_N > 0:
+            raise ValueError(f"Press.max_force_N: expected > 0, found {self.max_force_N}")
+
+
 @dataclass(frozen=True, eq=False)
 class Resources:
     gripper: Gripper
     table: Table
     fixtures: tuple[Fixture, ...] = ()
     robot: Robot | None = None
+    press: Press | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -17,6 +17,10 @@ that separation too: two BVH surfaces lying face on face (a cover resting on a h
 FCL triangle-local depths of micrometres, but parts that a translation of at most the
 tolerance separates touch; they do not interfere.
 
+Every mate whose clearance range reaches below zero (interference and transition fits) gets
+its press force range (:mod:`asmplan.parts.press_fit`): min/typical/max axial force, the
+probability that the pair interferes, the hub and bore diameters and the materials used.
+
 A failed check is a result (``AssemblyCheck.success`` False with the reason), not an exception.
 """
 
@@ -28,11 +32,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..knowledge.model import Product
+from ..knowledge.press_fit import PressFit
 from .collision import CollisionWorld
 from .features import Finding, check_mates
 from .geometry import polygon_excess, sides_for_tolerance
 from .models import ProductGeometry
 from .pieces import CollisionModel, ConvexPiece, LevelOfDetail
+from .press_fit import press_fits
 
 NUMERIC_ALLOWANCE_M = 0.01e-6  # FCL in millimetres resolves about 1 nm; allow 10 nm
 
@@ -87,6 +93,7 @@ class AssemblyCheck:
     intended_contacts: tuple[Interference, ...]
     findings: tuple[Finding, ...]
     timings_s: dict[str, float] = field(default_factory=dict)
+    press_fits: tuple[PressFit, ...] = ()
 
     @property
     def success(self) -> bool:
@@ -106,14 +113,29 @@ class AssemblyCheck:
             parts.append("feature errors: " + ", ".join(dict.fromkeys(errors)))
         return "; ".join(parts)
 
+    def press_fit(self, mate: str) -> PressFit | None:
+        """The press force prediction of ``mate`` (None for a clearance fit)."""
+        return next((p for p in self.press_fits if p.mate == mate), None)
+
     def as_dict(self) -> dict[str, object]:
-        """JSON-safe summary (SI units)."""
+        """JSON-safe summary (SI units). Each mate carries ``press_force_N`` ({min, typical,
+        max}, null for a clearance fit) and ``probability_interference``; ``press_fits``
+        holds the full prediction (diameters, materials, friction, pressure)."""
+        def press(m: MateClearance) -> dict[str, object]:
+            pf = self.press_fit(m.mate)
+            if pf is None:
+                return {"press_force_N": None, "probability_interference": 0.0}
+            d = pf.as_dict()
+            return {"press_force_N": d["press_force_N"],
+                    "probability_interference": pf.probability_interference}
+
         return {
             "product": self.product, "level": self.level, "success": self.success, "reason": self.reason,
             "mates": [{"mate": m.mate, "pin": m.pin, "hole": m.hole, "fit": m.fit,
                        "declared_min_m": m.declared_min_m, "declared_max_m": m.declared_max_m,
                        "built_m": m.built_m, "measured_m": m.measured_m, "bound_m": m.bound_m,
-                       "within": m.measured_within} for m in self.mates],
+                       "within": m.measured_within, **press(m)} for m in self.mates],
+            "press_fits": [p.as_dict() for p in self.press_fits],
             "interferences": [{"a": i.a, "b": i.b, "depth_m": i.depth_m, "point_m": i.point_m.tolist(),
                                "contact_depth_m": i.contact_depth_m, "separate_along": list(i.separate_along)}
                               for i in self.interferences],
@@ -221,10 +243,13 @@ def check_assembly(product: Product, geometry: ProductGeometry, level: LevelOfDe
         findings += geometry.feature_findings(name)
     findings += check_mates(product, geometry.sizing, geometry.feature_depth)
     t5 = time.perf_counter()
+    fits, press_findings = press_fits(product, geometry)
+    findings += press_findings
+    t6 = time.perf_counter()
     timings = {"geometry_s": t1 - t0, "world_s": t2 - t1, "mates_s": t3 - t2, "contacts_s": t4 - t3,
-               "features_s": t5 - t4}
+               "features_s": t5 - t4, "press_fits_s": t6 - t5}
     return AssemblyCheck(product.name, level, mates, tuple(interferences), tuple(intended), tuple(findings),
-                         timings)
+                         timings, fits)
 
 
 __all__ = ["AssemblyCheck", "Interference", "MateClearance", "check_assembly", "measure_mate_clearance"]

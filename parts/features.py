@@ -10,7 +10,10 @@ Checks return :class:`Finding` objects (severity, subject, message, evidence), n
   has no material inside 98 % of its radius over its depth, and material within 10 % outside
   it; a pin is material out to 98 % of its radius over its length, with no material from
   102 % to 110 % of its radius (it stands free). The 2 % allow a tessellated mesh (a 16-gon
-  or finer) to pass.
+  or finer) to pass. A male feature may be HOLLOW (a bearing ring, a bushing, a sleeve: the
+  male side of a fit into a bore and the female side for a shaft): when the solid is empty
+  along its axis, its bore ``d_i`` is measured (:func:`male_bore_diameter_m`) and the pin
+  must be material from 102 % of that bore out to 98 % of its radius.
 * every mate at the assembled pose: pin axis antiparallel to the hole axis within 0.1 deg,
   pin root on the hole axis within 10 um, pin root at the hole mouth (the axial offset is
   reported; more than 10 um is a warning), pin no longer than the hole is deep (blind holes),
@@ -101,6 +104,40 @@ def through_depth(solid, feature: Feature, diameter_m: float | None = None) -> f
     return float(np.max((feature.origin_m - V) @ feature.axis))
 
 
+BORE_RADIUS_TOLERANCE = 0.005
+"""Relative resolution of the bore search of a hollow male feature."""
+_EMPTY = 2e-3  # filled volume fraction still counted as empty (polygonised circles)
+
+
+def male_bore_diameter_m(solid, male: Feature, male_diameter_m: float) -> float:
+    """Bore ``d_i`` (m) of a hollow male feature, 0 for a solid one.
+
+    Twice the largest radius of a cylinder on the male axis, over 2-98 % of its length, that
+    holds no material (a binary search to ``BORE_RADIUS_TOLERANCE`` of the radius, one
+    boolean per probe). A male feature whose axis is material within 2 % of its radius is
+    solid.
+    """
+    R = 0.5 * male_diameter_m
+    T = T_part_feature(male)
+    z0, z1 = 0.02 * male.length_m, 0.98 * male.length_m
+
+    def empty(r: float) -> bool:
+        tube = _tube(0.0, r, z0, z1, T, n=96)
+        v = tube.volume()
+        return v <= 0 or (solid ^ tube).volume() / v <= _EMPTY
+
+    lo = 0.02 * R
+    if not empty(lo):
+        return 0.0
+    hi = 0.98 * R
+    if empty(hi):
+        return 2.0 * hi
+    while hi - lo > BORE_RADIUS_TOLERANCE * R:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if empty(mid) else (lo, mid)
+    return 2.0 * lo
+
+
 def feature_depth(solid, feature: Feature, diameter_m: float | None = None) -> float:
     """Declared depth (blind hole, pin length) or the depth measured on ``solid`` (through)."""
     if feature.is_male or not feature.through:
@@ -120,13 +157,16 @@ def check_feature(solid, feature: Feature, depth_m: float, diameter_m: float | N
                         "along its axis", (("radius_m", r),))]
     if feature.is_male:
         z0, z1 = 0.01 * depth_m, 0.99 * depth_m - feature.chamfer_m
-        core = _tube(0.0, 0.98 * r, z0, max(z1, z0 + 1e-6), T)
+        r_in = 0.5 * male_bore_diameter_m(solid, feature, 2 * r)
+        core = _tube(1.02 * r_in if r_in > 0 else 0.0, 0.98 * r, z0, max(z1, z0 + 1e-6), T)
         missing = (core - solid).volume() / max(core.volume(), 1e-300)
         if missing > 1e-3:
-            out.append(Finding("error", ref, f"expected the {feature.kind} to be material out to "
+            wall = f"from its {2.04 * r_in * 1e3:.4g} mm bore " if r_in > 0 else ""
+            out.append(Finding("error", ref, f"expected the {feature.kind} to be material {wall}out to "
                                f"{0.98 * r * 2e3:.4g} mm diameter over its {depth_m * 1e3:g} mm length, "
                                f"found {missing:.1%} of that volume empty",
-                               (("missing_fraction", missing), ("diameter_m", 2 * r))))
+                               (("missing_fraction", missing), ("diameter_m", 2 * r),
+                                ("bore_diameter_m", 2 * r_in))))
         ring = _tube(1.02 * r, 1.10 * r, 0.02 * depth_m, 0.98 * depth_m, T)
         buried = (ring ^ solid).volume() / max(ring.volume(), 1e-300)
         if buried > 1e-3:
@@ -225,5 +265,6 @@ __all__ = [
     "check_mates",
     "feature_depth",
     "feature_frames",
+    "male_bore_diameter_m",
     "through_depth",
 ]

@@ -38,6 +38,10 @@ def _um(v: float) -> str:
     return f"{v * 1e6:+8.2f}"
 
 
+def _force(v: float) -> str:
+    return f"{v / 1e3:.3g} kN" if v >= 1e3 else f"{v:.3g} N"
+
+
 def render(result: AssemblyCheck) -> str:
     """The check as a text table."""
     lines = [f'product "{result.product}": level {result.level}, '
@@ -51,6 +55,19 @@ def render(result: AssemblyCheck) -> str:
             lines.append(f"  {m.mate:<{w}}  {m.fit or '-':<6} {declared:>19}  {_um(m.built_m)}  "
                          f"{_um(m.measured_m):>11}  {m.bound_m * 1e6:8.3f}  "
                          f"{'yes' if m.measured_within else 'NO'}")
+    if result.press_fits:
+        w = max(len(p.mate) for p in result.press_fits)
+        lines.append(f"  {'press fit':<{w}}  {'fit':<6} {'P(interf.)':>10}  "
+                     f"{'press force N (min/typ/max)':>30}  {'d mm':>6} {'L mm':>6} {'D_o mm':>7} "
+                     f"{'d_i mm':>6}  mu    materials")
+        for p in result.press_fits:
+            lo, typ, hi = p.force_N
+            D_o = "inf" if not np.isfinite(p.hub_outer_diameter_m) else f"{p.hub_outer_diameter_m * 1e3:.1f}"
+            lines.append(f"  {p.mate:<{w}}  {p.fit or '-':<6} {p.probability_interference:>10.1%}  "
+                         f"{_force(lo):>9} / {_force(typ):>8} / {_force(hi):>8}  "
+                         f"{p.diameter_m * 1e3:6.2f} {p.engaged_length_m * 1e3:6.2f} {D_o:>7} "
+                         f"{p.male_bore_diameter_m * 1e3:6.2f}  {p.mu:.2f}  "
+                         f"{p.male_material} in {p.hub_material}")
     if result.interferences:
         for i in result.interferences:
             p = ", ".join(f"{v * 1e3:.2f}" for v in i.point_m)
