@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -72,6 +72,7 @@ from .layout import initial_layout
 from .ompl_backend import SE3Bounds, plan_se3
 from .partdata import PartData
 from .plan import Grasp, Plan, PlannerSettings, Step
+from .press import press_operation, product_press_fits
 from .scene import (
     GRIPPER_CLOSED,
     GRIPPER_OPEN,
@@ -148,6 +149,7 @@ class MotionPlanner:
         self.settings = settings
         self.parts = parts
         self.start_poses, self.start_notes = initial_layout(product, self.parts)
+        self.press_fits = product_press_fits(product)
         initial = {n: (product.T_world_assembled(n) if product.is_fixtured(n)
                        else self.start_poses[n]) for n in product.part_names}
         self.scene = Scene(product, self.parts, initial, settings.contact_tolerance_m)
@@ -204,7 +206,9 @@ class MotionPlanner:
             return step, StepTiming(part, time.perf_counter() - t_start,
                                     cpu_s=time.process_time() - c_start)
         data = self.parts[part]
-        clamp = clamp_force(product, part, data.mass_kg, step=index)
+        press = press_operation(product, part, self.placed, data.mass_kg, self.press_fits, index)
+        clamp = clamp_force(product, part, data.mass_kg, step=index, resistance_N=(
+            product.process.insertion_resistance_N + (press.gripper_resistance_N if press else 0.0)))
         spec = insertion_spec(product, part, self.placed, fallback_direction, index, self.parts)
         T_start = self.start_poses[part]
         T_final = product.T_world_assembled(part)
@@ -261,6 +265,8 @@ class MotionPlanner:
                 continue
             ompl_s += o_s
             check_s += c_s
+            if press is not None:
+                step = replace(step, press=press)
             self.placed.append(part)
             scene.set_part_pose(part, T_final)
             timing = StepTiming(part, time.perf_counter() - t_start, grasp_s, ompl_s, check_s,
@@ -372,7 +378,7 @@ class MotionPlanner:
         gravity_lever = max(float(np.linalg.norm((R @ perp)[:2])) for R in (R_s, R_f))
         try:
             clamp = clamp_force(product, part, clamp.mass_kg, step=index, lever_m=lever,
-                                gravity_lever_m=gravity_lever)
+                                gravity_lever_m=gravity_lever, resistance_N=clamp.resistance_N)
         except GripInfeasibleError as exc:
             raise _GraspFailed(f"grip infeasible for this grasp: {exc}", exc) from None
         scene.use_gripper(g, product.gripper_for(part))

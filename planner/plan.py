@@ -22,6 +22,7 @@ import numpy as np
 
 from ..fileio import atomic_write_text, dumps_json
 from .ompl_backend import PLANNERS
+from .press import PressOperation
 from .timing import ClampForce, TimingSettings
 from .trajectory import Trajectory
 
@@ -358,6 +359,8 @@ class Step:
     ``check_step_m`` is the finest step of the path certification; ``insertion_check_step_m``
     the sampling step used along the insertion to excuse pin-in-hole contact (0 when the exact
     swept-volume check met nothing); ``checked_poses`` how many poses were certified.
+    ``press`` is set when the step presses an interference or transition fit home (who pushes,
+    the force range, :mod:`asmplan.planner.press`).
     """
 
     index: int
@@ -379,6 +382,7 @@ class Step:
     checked_poses: int = 0
     notes: tuple[str, ...] = ()
     arm: ArmMotion | None = None
+    press: PressOperation | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in ("fixture", "insert", "place"):
@@ -441,6 +445,7 @@ class Step:
             "notes": list(self.notes),
             "arm": None if self.arm is None else self.arm.to_dict(),
             "cycle_time_s": float(self.cycle_time_s),
+            "press": None if self.press is None else self.press.to_dict(),
         }
 
     @classmethod
@@ -465,6 +470,7 @@ class Step:
             insertion_check_step_m=float(d.get("insertion_check_step_m", 0.0)),
             checked_poses=int(d.get("checked_poses", 0)), notes=tuple(d.get("notes", ())),
             arm=None if d.get("arm") is None else ArmMotion.from_dict(d["arm"]),
+            press=None if d.get("press") is None else PressOperation.from_dict(d["press"]),
         )
 
 

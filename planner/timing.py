@@ -120,7 +120,7 @@ class ClampForce:
 def clamp_force(product: Product, part: str, mass_kg: float,
                 acceleration_m_s2: float | None = None, step: int | None = None, *,
                 lever_m: float = 0.0, gravity_lever_m: float | None = None,
-                pad_width_m: float | None = None) -> ClampForce:
+                pad_width_m: float | None = None, resistance_N: float | None = None) -> ClampForce:
     """Per-finger clamp force to carry ``part`` (mass ``mass_kg``) with the product's gripper.
 
     ``F = sf sqrt(F_t^2 + F_m^2)`` with ``F_t = (m (g + a) + R) / (2 mu)`` the force that
@@ -130,8 +130,11 @@ def clamp_force(product: Product, part: str, mass_kg: float,
     acceleration limit unless given, ``d`` (``lever_m``) the distance of the centre of mass from
     the fingers' closing axis, ``d_g`` (``gravity_lever_m``, default ``d``) its horizontal part
     (gravity only makes a moment with that), ``W`` (``pad_width_m``, default the finger width)
-    the length of the pad contact and ``R`` the product's ``insertion_resistance_N``
-    (default 0). With a centred grasp and ``R = 0`` this is the classic ``sf m (g+a) / (2 mu)``.
+    the length of the pad contact and ``R`` (``resistance_N``) the axial resistance the grip
+    carries while inserting: by default the product's ``insertion_resistance_N`` (default 0);
+    the planner adds a press fit's force when the gripper presses the part in
+    (:mod:`asmplan.planner.press`). With a centred grasp and ``R = 0`` this is the classic
+    ``sf m (g+a) / (2 mu)``.
 
     The moment term: a load f at lever d makes a moment f d about the closing axis; a line
     contact of length W under a normal force F resists at most mu F W / 4 per pad (uniform
@@ -150,7 +153,7 @@ def clamp_force(product: Product, part: str, mass_kg: float,
     mu = float(gripper.finger_friction) * float(p.friction)
     sf = float(product.process.safety_factor)
     width = float(gripper.finger_size_m[0]) if pad_width_m is None else float(pad_width_m)
-    resistance = float(product.process.insertion_resistance_N)
+    resistance = float(product.process.insertion_resistance_N if resistance_N is None else resistance_N)
     limit, source = float(gripper.max_force_N), "gripper max_force"
     if p.handling.max_clamp_force_N is not None and p.handling.max_clamp_force_N < limit:
         limit, source = float(p.handling.max_clamp_force_N), "part max_clamp_force"

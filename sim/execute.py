@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -139,6 +139,7 @@ def execute_step(
     T_world_part_target: np.ndarray | None = None,
     mate_axis_world: ArrayLike | None = None,
     warnings: Sequence[str] = (),
+    before_step: Callable[[int], None] | None = None,
 ) -> tuple[StepRecord, StepOutcome]:
     """Drive the gripper along ``trajectory`` and judge the step.
 
@@ -160,6 +161,9 @@ def execute_step(
         insertion from above; enables the axial/lateral errors.
     warnings : sequence of str
         Warnings to carry into the outcome (e.g. from :func:`scene_warnings`).
+    before_step : callable, optional
+        ``before_step(i)`` is called before physics step ``i`` (forces applied there act
+        during that step only), e.g. :class:`asmplan.sim.press.PressRecorder`.
 
     Returns
     -------
@@ -227,6 +231,8 @@ def execute_step(
         else:
             gripper.command_clamp_force(float(f_cmd[i]))
             mode_open = False
+        if before_step is not None:  # e.g. a press fit's resistance (asmplan.sim.press)
+            before_step(i)
         world.step()
         if r >= m or tick_steps[r] != i:
             # between record rows: sample the peak criteria at their own rate

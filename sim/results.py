@@ -127,6 +127,9 @@ class StepResult:
         Wall-clock time of the step (selection, building, simulation), s. Not in the JSON.
     timing_s : dict
         Wall-clock time per stage ("select", "build", "simulate"), s. Not in the JSON.
+    press : dict or None
+        For a press step (:mod:`asmplan.sim.press`): who pressed, the final engaged depth,
+        the peak force, the force-depth curve ``[[depth m, force N], ...]`` and the verdict.
     """
 
     index: int
@@ -139,6 +142,7 @@ class StepResult:
     criteria: dict[str, dict[str, Any]] = field(default_factory=dict)
     wall_time_s: float = 0.0
     timing_s: dict[str, float] = field(default_factory=dict)
+    press: dict[str, Any] | None = None
 
     @property
     def simulated(self) -> bool:
@@ -168,7 +172,7 @@ class StepResult:
             "outcome": None if self.outcome is None else _outcome_to_dict(self.outcome),
             "criteria": self.criteria,
             "record": None if self.record is None else self.record.to_dict(),
-            "scene": self.scene, "warnings": list(self.warnings),
+            "scene": self.scene, "warnings": list(self.warnings), "press": self.press,
         })
 
     @classmethod
@@ -180,7 +184,8 @@ class StepResult:
         return cls(index=int(d["index"]), part=d["part"], kind=d["kind"],
                    outcome=None if d["outcome"] is None else _outcome_from_dict(d["outcome"]),
                    record=None if d["record"] is None else StepRecord.from_dict(d["record"]),
-                   scene=d["scene"], warnings=tuple(d["warnings"]), criteria=crit)
+                   scene=d["scene"], warnings=tuple(d["warnings"]), criteria=crit,
+                   press=d.get("press"))
 
 
 @dataclass(frozen=True, eq=False)
