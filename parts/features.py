@@ -115,7 +115,8 @@ def male_bore_diameter_m(solid, male: Feature, male_diameter_m: float) -> float:
     Twice the largest radius of a cylinder on the male axis, over 2-98 % of its length, that
     holds no material (a binary search to ``BORE_RADIUS_TOLERANCE`` of the radius, one
     boolean per probe). A male feature whose axis is material within 2 % of its radius is
-    solid.
+    solid; one with no material out to 98 % of its radius has no wall, and is returned as
+    solid (0) so that the feature check reports the missing material.
     """
     R = 0.5 * male_diameter_m
     T = T_part_feature(male)
@@ -131,7 +132,7 @@ def male_bore_diameter_m(solid, male: Feature, male_diameter_m: float) -> float:
         return 0.0
     hi = 0.98 * R
     if empty(hi):
-        return 2.0 * hi
+        return 0.0  # no wall at all: not a hollow feature but a missing one (checked as solid)
     while hi - lo > BORE_RADIUS_TOLERANCE * R:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if empty(mid) else (lo, mid)
