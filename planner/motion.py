@@ -64,6 +64,7 @@ from .grasp import GripLoad, Rejections, collision_free, iter_grasps
 from .insertion import (
     InsertionSpec,
     clear_standoff_m,
+    clearing_travel_m,
     insertion_spec,
     other_body,
     unexcused,
@@ -72,7 +73,7 @@ from .layout import initial_layout
 from .ompl_backend import SE3Bounds, plan_se3
 from .partdata import PartData
 from .plan import Grasp, Plan, PlannerSettings, Step
-from .press import press_operation, product_press_fits
+from .press import hand_over_pose, press_operation, press_step, product_press_fits
 from .scene import (
     GRIPPER_CLOSED,
     GRIPPER_OPEN,
@@ -211,17 +212,26 @@ class MotionPlanner:
             product.process.insertion_resistance_N + (press.gripper_resistance_N if press else 0.0)))
         spec = insertion_spec(product, part, self.placed, fallback_direction, index, self.parts)
         T_start = self.start_poses[part]
-        T_final = product.T_world_assembled(part)
+        T_seated = product.T_world_assembled(part)
         approach = product.process.approach_distance_m
+        # a press operation: the robot hands the part over on the mouth, the ram seats it
+        # (its stroke: the whole clearing travel of the pressed mates, e.g. a hinge pin
+        # through a bushing before the lever's eye)
+        if press is not None:
+            stroke = max(clearing_travel_m(product, m, {n: self.parts[n].points_m
+                                                        for n in (m.pin_part, m.hole_part)})
+                         for m in product.mates if m.name in press.mates)
+            press = replace(press, pass_through_m=stroke)
+        T_final = hand_over_pose(press, T_seated, spec.direction)
         obstacles = scene.obstacles(part)
-        pre_dist = clear_standoff_m(scene, part, T_final, spec.direction, obstacles,
+        pre_dist = clear_standoff_m(scene, part, T_seated, spec.direction, obstacles,
                                     spec.length_m + approach,
                                     clearance_m=product.process.position_tolerance_m)
-        T_pre = translated(T_final, -spec.direction * pre_dist)
+        T_pre = translated(T_seated, -spec.direction * pre_dist)
 
         # 1. the part alone along its insertion (independent of the grasp)
         sampled = 0.0 if self.seats_directly else self._check_insertion(
-            index, part, spec, T_pre, T_final, obstacles)
+            index, part, spec, T_pre, T_seated, obstacles)
 
         # 2. grasps, best first: free at the start and final poses, then the full motion
         t_g = time.perf_counter()
@@ -266,9 +276,9 @@ class MotionPlanner:
             ompl_s += o_s
             check_s += c_s
             if press is not None:
-                step = replace(step, press=press)
+                step = press_step(step, press, T_seated, product.process.insertion_speed_m_s)
             self.placed.append(part)
-            scene.set_part_pose(part, T_final)
+            scene.set_part_pose(part, T_seated)
             timing = StepTiming(part, time.perf_counter() - t_start, grasp_s, ompl_s, check_s,
                                 len(failures) + 1, checked, time.process_time() - c_start)
             return step, timing

@@ -12,9 +12,14 @@ allow), as a process engineer sizes a press:
   the safety factor), and at most the process's ``max_insertion_force`` (what the robot may
   push with). When the max force is within that, the gripper presses and the clamp force is
   planned for the resistance (``gripper_resistance_N``);
-* otherwise the cell's press (``resources.press``) must do it: the step is a press operation
-  (the robot positions the part on the mouth, the ram pushes it home; the grip carries no
-  press force but is planned firm, see ``PressOperation.gripper_resistance_N``). Without a
+* otherwise the cell's press (``resources.press``) must do it: the step is a press operation.
+  The robot carries the part to the HAND-OVER pose (on the hole's mouth, backed off its
+  engaged depth: :func:`hand_over_pose`; its grasp need only be free there, so a bearing
+  pressed flush into a bore can be handled by an outside gripper) and lets go; the ram pushes
+  it home at the process's insertion speed (the step's trajectory lasts until then,
+  :func:`press_step`). The part's whole travel to its seat is collision-checked as for any
+  insertion. The grip carries no press force but is planned firm, see
+  ``PressOperation.gripper_resistance_N``. Without a
   press, or with one too weak, planning fails with
   :class:`PressRequiredError` carrying the numbers.
 """
@@ -23,13 +28,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from typing import Any, Literal
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
 
 from ..knowledge.model import Product
 from ..knowledge.press_fit import PressFit
 from .errors import PlanningError
 from .timing import G_M_S2, motion_limits
+from .trajectory import PhaseSpan, Trajectory
+
+if TYPE_CHECKING:
+    from .plan import Step
 
 
 def _kn(v: float) -> str:
@@ -74,7 +85,8 @@ class PressOperation:
     ``force_N`` (min, typical, max) sums the step's interfering mates at full depth;
     ``by`` is ``"gripper"`` (the robot pushes, the grip carries ``gripper_resistance_N``) or
     ``"press"`` (the cell's press, up to ``press_max_force_N``). ``depth_m`` is the engaged
-    length; the predicted resistance grows linearly with depth to ``force_N`` there.
+    length: the predicted resistance grows linearly with the contact length to ``force_N``
+    there (and stays there over the rest of a longer ``stroke_m``).
     """
 
     part: str
@@ -85,13 +97,22 @@ class PressOperation:
     by: Literal["gripper", "press"]
     capacity: PushCapacity
     press_max_force_N: float = math.nan
+    pass_through_m: float = 0.0
+
+    @property
+    def stroke_m(self) -> float:
+        """How far the part travels while engaged with its press partners, m: the engaged
+        length, or more when the part passes through them first (a hinge pin through a
+        lever's eye)."""
+        return max(self.depth_m, self.pass_through_m)
 
     @property
     def gripper_resistance_N(self) -> float:
         """Axial force the grip is planned to carry while inserting, N: the max press force
-        when the gripper presses; when the press does, half the grip's push capacity (the
-        robot guides the part into the ram's stroke and holds it against the guidance's
-        drag, which no model here predicts: a firm grip, with half the gripper in reserve)."""
+        when the gripper presses; for a press operation half the grip's push capacity (the
+        robot sets the part on the chamfered mouth, where it must not tilt in the fingers; no
+        model here predicts that contact force, so the grip is firm, with half the gripper in
+        reserve)."""
         return self.force_N[2] if self.by == "gripper" else 0.5 * self.capacity.force_N
 
     def predicted_curve(self, n: int = 11) -> list[tuple[float, float]]:
@@ -102,7 +123,9 @@ class PressOperation:
         return {"part": self.part, "mates": list(self.mates),
                 "force_N": dict(zip(("min", "typical", "max"), self.force_N, strict=True)),
                 "probability_interference": self.probability_interference,
-                "depth_m": self.depth_m, "by": self.by, "capacity": self.capacity.as_dict(),
+                "depth_m": self.depth_m, "stroke_m": self.stroke_m,
+                "pass_through_m": self.pass_through_m,
+                "by": self.by, "capacity": self.capacity.as_dict(),
                 "press_max_force_N": None if math.isnan(self.press_max_force_N)
                 else self.press_max_force_N,
                 "gripper_resistance_N": self.gripper_resistance_N,
@@ -114,7 +137,8 @@ class PressOperation:
         pmax = d.get("press_max_force_N")
         return cls(d["part"], tuple(d["mates"]), (f["min"], f["typical"], f["max"]),
                    float(d["probability_interference"]), float(d["depth_m"]), d["by"],
-                   PushCapacity(**d["capacity"]), math.nan if pmax is None else float(pmax))
+                   PushCapacity(**d["capacity"]), math.nan if pmax is None else float(pmax),
+                   float(d.get("pass_through_m", 0.0)))
 
 
 class PressRequiredError(PlanningError):
@@ -185,6 +209,46 @@ def press_operation(product: Product, part: str, placed: Sequence[str], mass_kg:
     return PressOperation(part, names, force, p_any, depth, "press", capacity, press.max_force_N)
 
 
+PRESS_SETTLE_S = 0.3
+"""Time the ram dwells at the end of its stroke before the step ends, s."""
+
+
+def hand_over_pose(op: PressOperation | None, T_world_seated: np.ndarray,
+                   direction_world: np.ndarray) -> np.ndarray:
+    """Where the robot leaves the part (4, 4): for a press operation the part stands on the
+    hole's mouth, backed off its engaged depth along the insertion direction (the ram pushes
+    it home); otherwise the seated pose itself."""
+    if op is None or op.by != "press":
+        return T_world_seated
+    T = np.array(T_world_seated, dtype=float)
+    T[:3, 3] -= np.asarray(direction_world, float) * op.stroke_m
+    return T
+
+
+def press_step(step: Step, op: PressOperation, T_world_seated: np.ndarray,
+               ram_speed_m_s: float) -> Step:
+    """``step`` as a press step: the press record, the seated pose as its final pose (the
+    gripper's trajectory ends at the hand-over pose for a press operation) and, for a press
+    operation, the trajectory's last (open) phase lengthened by the ram's stroke
+    (stroke / ``ram_speed_m_s`` + ``PRESS_SETTLE_S``) so that the step lasts until the part is
+    home."""
+    if op.by != "press" or step.trajectory is None:
+        return replace(step, press=op)
+    tr = step.trajectory
+    stroke_s = op.stroke_m / ram_speed_m_s + PRESS_SETTLE_S
+    last = tr.phases[-1]
+    end = float(tr.t_s[-1]) + stroke_s
+    traj = Trajectory(t_s=np.append(tr.t_s, end),
+                      T_world_gripper=np.concatenate([tr.T_world_gripper, tr.T_world_gripper[-1:]]),
+                      clamp_force_N=np.append(tr.clamp_force_N, 0.0),
+                      phases=(*tr.phases[:-1], PhaseSpan(last.name, last.t_start_s, end)))
+    return replace(step, press=op, trajectory=traj, T_world_final=np.asarray(T_world_seated),
+                   notes=(*step.notes, f"press operation: the robot leaves the part on the mouth, "
+                          f"the press seats it over {op.stroke_m * 1e3:.2f} mm at "
+                          f"{ram_speed_m_s * 1e3:.0f} mm/s (needs {op.force_N[0]:.4g}-"
+                          f"{op.force_N[2]:.4g} N, press max {op.press_max_force_N:.4g} N)"))
+
+
 def product_press_fits(product: Product, geometry: Any | None = None) -> dict[str, PressFit]:
     """``{mate: PressFit}`` of every interfering or transition mate (empty, without building
     any geometry, when there is none). Mates whose force cannot be predicted are left out
@@ -198,5 +262,6 @@ def product_press_fits(product: Product, geometry: Any | None = None) -> dict[st
     return {f.mate: f for f in fits}
 
 
-__all__ = ["PressOperation", "PressRequiredError", "PushCapacity", "press_operation",
-           "product_press_fits", "push_capacity"]
+__all__ = ["PRESS_SETTLE_S", "PressOperation", "PressRequiredError", "PushCapacity",
+           "hand_over_pose", "press_operation", "press_step", "product_press_fits",
+           "push_capacity"]

@@ -17,10 +17,11 @@ The resistance is the joint's friction:
   while it is engaged, smoothed near zero speed (``tanh(v / SPEED_SCALE_M_S)``) and capped at
   what stops the axial motion within one step (``m |v| / dt``: an explicit Coulomb force on a
   few grams diverges); the grip must carry it or the part slips.
-* When the cell's press presses (``by == "press"``), its ram balances the resistance at every
-  depth until the part is home (the ram is force-controlled up to ``press.max_force``; the
-  robot only guides the part), so no force is applied; the ram force ``F(x)`` plus the axial
-  force of the rigid contacts is recorded.
+* When the cell's press presses (``by == "press"``), the robot leaves the part on the mouth
+  (the plan's hand-over pose) and lets go; then the RAM, a fixed constraint whose target
+  moves along the mate axis at the process's insertion speed with the press's ``max_force``
+  as its force limit, pushes it home against ``F(x)`` applied to the part. The ram force
+  ``F(x)`` plus the axial force of the rigid contacts is recorded.
 * Once home (within ``SEATED_M`` of the full depth), the joint holds the part: a fixed
   constraint at its pose with the press force as its force limit (a released press-fitted
   dowel does not drop to the bottom of its hole, and a later step cannot push it off with less
@@ -95,6 +96,7 @@ class PressRecorder:
     axis_world: np.ndarray
     p_seated_m: np.ndarray
     depth_m: float
+    stroke_m: float
     force_full_N: float
     by: str
     press_max_force_N: float
@@ -102,35 +104,55 @@ class PressRecorder:
     samples: list[tuple[float, float]] = field(default_factory=list)
     every: int = 1
     seated: bool = False
+    t_ram_s: float | None = None
+    t0_s: float = 0.0
+    ram_speed_m_s: float = 0.01
+    R_seated: np.ndarray = field(default_factory=lambda: np.eye(3))
     _hold: int = -1
     _hold_x: float = 0.0
+    _ram_from: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    _ram_quat: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
 
     def engaged_m(self) -> float:
-        """Engaged depth (m): 0 unless the part is on the mate axis (within
-        ``ON_AXIS_M``) and no farther from its seat than the engaged length."""
+        """Travel into the press partners (m, 0..``stroke_m``): 0 unless the part is on the
+        mate axis (within ``ON_AXIS_M``) and no farther from its seat than the stroke."""
         p = self.world.pose(self.body)[:3, 3]
         rel = self.p_seated_m - p
         to_go = float(rel @ self.axis_world)
         lateral = float(np.linalg.norm(rel - to_go * self.axis_world))
-        if lateral > ON_AXIS_M or not -ON_AXIS_M <= to_go <= self.depth_m:
+        if lateral > ON_AXIS_M or not -ON_AXIS_M <= to_go <= self.stroke_m:
             return 0.0
-        return min(max(self.depth_m - to_go, 0.0), self.depth_m)
+        return min(max(self.stroke_m - to_go, 0.0), self.stroke_m)
+
+    def force_at_N(self, x: float) -> float:
+        """Resistance at travel ``x``: grows with the contact length up to ``depth_m``."""
+        if self.depth_m <= 0:
+            return 0.0
+        return self.force_full_N * min(x, self.depth_m) / self.depth_m
 
     def before_step(self, i: int) -> None:
         x = self.engaged_m()
-        f = self.force_full_N * x / self.depth_m if self.depth_m > 0 else 0.0
-        if not self.seated and x >= self.depth_m - SEATED_M and f > 0:
+        f = self.force_at_N(x)
+        if not self.seated and x >= self.stroke_m - SEATED_M and f > 0:
             # home: the joint now holds the part in every direction up to its press force
             # (a fixed constraint at the current pose: implicit, stable for kN on grams)
             self.seated = True
-            self._hold = self.world.add_pose_constraint(self.body, self.world.pose(self.body), f)
+            T = self.world.pose(self.body)
+            if self._hold < 0:
+                self._hold = self.world.add_pose_constraint(self.body, T, f)
+            else:  # the ram finishes its stroke; its constraint becomes the joint's hold
+                self.world.move_pose_constraint(self._hold, self.p_seated_m, self._ram_quat, f)
+                x = self.stroke_m
             self._hold_x = x
         elif self.seated and x > self._hold_x:
             # pushed deeper: the hold follows inward (a ratchet), never pulls back out
             T = self.world.pose(self.body)
-            self.world.move_pose_constraint(self._hold, T[:3, 3],
-                                            quat_xyzw_from_matrix(T[:3, :3]), f)
+            self.world.move_pose_constraint(self._hold, T[:3, 3], quat_xyzw_from_matrix(T[:3, :3]), f)
             self._hold_x = x
+        elif not self.seated and self.by == "press" and self.t_ram_s is not None:
+            t = self.t0_s + self.world.fidelity.dt_s * (i + 1)
+            if t >= self.t_ram_s:
+                self._ram(t, f)
         elif f > 0 and self.by == "gripper" and not self.seated:
             # sliding friction against the insertion, at most what stops the axial motion
             # within one step (an explicit Coulomb force larger than that diverges)
@@ -149,36 +171,63 @@ class PressRecorder:
                 ram += max(float(-(con.force_on_a_N() @ self.axis_world)), 0.0)
             self.samples.append((x, ram))
 
+    def _ram(self, t: float, f: float) -> None:
+        """The press's ram: drives the part along the mate axis through the seat at
+        ``ram_speed_m_s`` from where the robot left it (its axial position) to the seat, in the
+        seated orientation, with the press's max force as its limit, against the joint's
+        resistance ``f``."""
+        if self._hold < 0:
+            T = self.world.pose(self.body)
+            self._ram_from = T[:3, 3].copy()
+            self._ram_quat = quat_xyzw_from_matrix(self.R_seated)
+            self._hold = self.world.add_pose_constraint(self.body, T, self.press_max_force_N)
+        # the ram runs on the mate axis through the seat (the press is aligned with the bore),
+        # from where the robot left the part along the axis
+        to_go = float((self.p_seated_m - self._ram_from) @ self.axis_world)
+        left = max(to_go - self.ram_speed_m_s * (t - self.t_ram_s), 0.0)
+        target = self.p_seated_m - self.axis_world * left
+        self.world.move_pose_constraint(self._hold, target, self._ram_quat, self.press_max_force_N)
+        if f > 0:
+            com = self.world.com_position_m(self.body)
+            self.world.apply_force(self.body, -1, -f * self.axis_world, com)
+
     def summary(self) -> dict[str, Any]:
         xs = [s[0] for s in self.samples] or [0.0]
         fs = [s[1] for s in self.samples] or [0.0]
         final = xs[-1]
         peak = max(fs)
-        home = final >= self.depth_m - 1e-4
+        home = final >= self.stroke_m - 1e-4
         within = self.by != "press" or peak <= self.press_max_force_N
         verdict = (f"pressed by the {self.by} to depth {final * 1e3:.2f} of "
-                   f"{self.depth_m * 1e3:.2f} mm with peak {peak:.4g} N"
+                   f"{self.stroke_m * 1e3:.2f} mm with peak {peak:.4g} N"
                    + ("" if home else " (not home)")
                    + ("" if within else f" (above the press max {self.press_max_force_N:.4g} N)"))
         # thin the curve to at most 200 points for the results file
         step = max(1, len(self.samples) // 200)
-        return {"by": self.by, "depth_m": self.depth_m, "final_depth_m": final,
+        return {"by": self.by, "depth_m": self.depth_m, "stroke_m": self.stroke_m,
+                "final_depth_m": final,
                 "peak_force_N": peak, "home": home, "within_press_max": within,
                 "force_full_typical_N": self.force_full_N, "verdict": verdict,
                 "force_depth": [[x, f] for x, f in self.samples[::step]]}
 
 
-def press_recorder(world: Any, body: int, step: Step, gripper_body: int, every: int = 1
-                   ) -> PressRecorder | None:
-    """A :class:`PressRecorder` for ``step`` (None when the step presses nothing)."""
+def press_recorder(world: Any, body: int, step: Step, gripper_body: int, ram_speed_m_s: float,
+                   every: int = 1) -> PressRecorder | None:
+    """A :class:`PressRecorder` for ``step`` (None when the step presses nothing). For a
+    press operation the ram starts when the gripper has let go (the end of the trajectory's
+    "release" phase) and moves at ``ram_speed_m_s``."""
     op = step.press
-    if op is None or step.insertion_direction is None:
+    if op is None or step.insertion_direction is None or step.trajectory is None:
         return None
     axis = np.asarray(step.insertion_direction, float)
-    return PressRecorder(world, body, axis / np.linalg.norm(axis),
-                         np.asarray(step.T_world_final, float)[:3, 3].copy(), float(op.depth_m),
-                         float(op.force_N[1]), op.by, float(op.press_max_force_N), gripper_body,
-                         every=every)
+    T_seated = np.asarray(step.T_world_final, float)
+    t_ram = next((p.t_end_s for p in step.trajectory.phases if p.name == "release"), None)
+    return PressRecorder(world, body, axis / np.linalg.norm(axis), T_seated[:3, 3].copy(),
+                         float(op.depth_m), float(op.stroke_m), float(op.force_N[1]), op.by,
+                         float(op.press_max_force_N), gripper_body, every=every,
+                         t_ram_s=None if op.by != "press" else t_ram,
+                         t0_s=float(step.trajectory.t_s[0]), ram_speed_m_s=float(ram_speed_m_s),
+                         R_seated=T_seated[:3, :3].copy())
 
 
 __all__ = ["ON_AXIS_M", "SPEED_SCALE_M_S", "PressRecorder", "press_clearance_m", "press_recorder",

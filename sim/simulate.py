@@ -175,6 +175,7 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
                                  carried_mass_kg=held.mass_kg)
         t2 = time.perf_counter()
         press = press_recorder(world, ids[step.part], step, gripper.body,
+                               product.process.insertion_speed_m_s,
                                every=fidelity.record_every_steps)
         record, outcome = execute_step(world, gripper, ids[step.part], traj, crit,
                                        T_world_part_target=step.T_world_final,
