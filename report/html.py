@@ -114,7 +114,8 @@ def _step_rows(inp: ReportInputs, views: Views | None, folder: Path) -> list[dic
             "final_error": _fmt(outcome.final_position_error_m if outcome else None, 1e3, 3),
             "success": None if outcome is None else bool(outcome.success),
             "reasons": "; ".join(outcome.reasons) if outcome is not None else "",
-            "views": {}, "plots": {}, "notes": [*step.notes, *(res.warnings if res is not None else ())],
+            "views": {}, "plots": {}, "notes": [*_press_notes(step, res), *step.notes,
+                                                *(res.warnings if res is not None else ())],
             "summary": "",
         }
         if step.kind == "fixture":
@@ -214,3 +215,17 @@ def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True)
         steps=steps, arm=arm, fidelity=_fidelity_block(inp.fidelity), warnings=inp.warnings,
         failure=inp.failure, success=success, verdict=verdict, version=__version__)
     return atomic_write_text(folder / "report.html", html)
+
+
+def _press_notes(step, res) -> list[str]:
+    """The press force a step's fits need (plan) and what the simulation measured."""
+    out = []
+    op = step.press
+    if op is not None:
+        lo, typ, hi = op.force_N
+        out.append(f"press fit {', '.join(op.mates)}: needs {lo:.4g} / {typ:.4g} / {hi:.4g} N "
+                   f"(min / typical / max; interferes with probability "
+                   f"{op.probability_interference:.1%}), pressed by the {op.by}")
+    if res is not None and getattr(res, "press", None):
+        out.append(res.press["verdict"])
+    return out
