@@ -91,10 +91,11 @@ def clearance_warnings(product: Product, fidelity: Fidelity) -> tuple[str, ...]:
                 f"{fit}): ")
         if c < 0:
             out.append(
-                head + f"a {m.kind} fit (interference up to {-c * 1e3:.3f} mm) is simulated "
-                f"at the {fidelity.name} preset's resolvable clearance ({res * 1e3:.3f} mm) "
-                "with its predicted press force as an axial resistance (asmplan.sim.press): "
-                "a success shows the force and the guidance, not the fit's elastic contact.")
+                head + f"a {m.kind} fit (interference up to {-c * 1e3:.3f} mm) cannot be "
+                "modelled by rigid bodies: it is simulated at a clearance the "
+                f"{fidelity.name} preset resolves (at most {res * 1e3:.3f} mm) with its "
+                "predicted press force as an axial resistance (asmplan.sim.press): a success "
+                "shows the force and the guidance, not the fit's elastic contact.")
             continue
         finer = [f for f in better if f.min_resolvable_clearance_m <= c]
         advice = (f"Run --fidelity {finer[0].name} to resolve it" if finer else

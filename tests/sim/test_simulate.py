@@ -189,6 +189,8 @@ def test_low_clearance_warning_says_how_to_read_the_result():
     assert clearance_warnings(with_clearance(0.02e-3), ACCURATE) == ()
     (w,) = clearance_warnings(with_clearance(-0.01e-3), ACCURATE)
     assert "cannot be modelled by rigid bodies" in w
+    assert "simulated at a clearance the accurate preset resolves (at most 0.020 mm)" in w
+    assert "predicted press force as an axial resistance" in w
     assert isinstance(product.mates[0], Mate)
 
 
