@@ -90,3 +90,18 @@ def test_declared_hub_diameter_replaces_the_measure(tmp_path):
     assert pf.hub_outer_source == "declared"
     hand = lame_force(20e-6, 8e-3, 10e-3, 16e-3, 0.0, *STEEL, *STEEL, 0.10)
     assert pf.force_N[1] == pytest.approx(hand, rel=1e-9)
+
+
+def test_check_command_reports_the_press_force(capsys):
+    import json
+
+    from asmplan.cli import main
+
+    assert main(["check", str(FIXTURES / "steel_pin_in_steel.yaml"), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    row = doc["mates"][0]
+    assert row["press_force_N"]["typical"] == pytest.approx(6.24e3, rel=0.02)
+    assert doc["press_fits"][0]["size_distribution"].startswith("normal sizes centred in H7 and s6")
+    assert main(["check", str(FIXTURES / "steel_pin_in_steel.yaml")]) == 0
+    text = capsys.readouterr().out
+    assert "dowel_press  H7/s6      100.0%     2.5 kN /  6.25 kN /    10 kN" in text
