@@ -10,10 +10,12 @@ parts' exact solids (manifold3d):
   governs, as DIN 7190 suggests for non-round hubs); a hub wall thicker than
   ``UNBOUNDED_RATIO`` times the hole diameter counts as unbounded (``inf``: the Lame ratio is
   then within 1 % of its limit 1). A mate's declared ``hub_diameter`` replaces the measure.
+  The search doubles the wall from a quarter of the radius until the ring is no longer all
+  material, then bisects to ``RADIUS_TOLERANCE`` of the radius or ``WALL_TOLERANCE`` of the
+  wall (one boolean per probe, on the solid clipped to the neighbourhood of the hole).
 * ``d_i``, the bore of a hollow male feature (a bearing ring, a bushing, a sleeve):
   :func:`asmplan.parts.features.male_bore_diameter_m`; 0 for a solid pin.
 
-Both are binary searches to ``RADIUS_TOLERANCE`` of the radius (each probe is one boolean).
 """
 
 from __future__ import annotations
@@ -26,8 +28,13 @@ from .features import Finding, T_part_feature, _tube, male_bore_diameter_m
 
 UNBOUNDED_RATIO = 10.0
 """A hub wall out to this many hole diameters counts as unbounded (D_o = inf)."""
-RADIUS_TOLERANCE = 0.005
-"""Relative resolution of the radius searches."""
+RADIUS_TOLERANCE = 0.01
+"""Resolution of the hub search, relative to the hole radius ..."""
+WALL_TOLERANCE = 0.03
+"""... or to the wall thickness when that is coarser (a thick wall hardly changes p)."""
+PROBE_SIDES = 48
+"""Sides of the probe rings (their polygon error, 0.2 % of the radius, is below the
+search's resolution)."""
 _FULL = 2e-3  # missing volume fraction still counted as "all material" (polygonised circles)
 
 
@@ -44,16 +51,28 @@ def hub_outer_diameter_m(solid, hole: Feature, hole_diameter_m: float, engaged_m
     z0 = -max(engaged_m, 1e-6) * 0.98
     z1 = -min(hole.chamfer_m + 0.02 * engaged_m, 0.5 * engaged_m)
 
-    def full(R: float) -> bool:
-        return _fraction(solid, _tube(r * 1.005, R, z0, z1, T, n=96)) >= 1.0 - _FULL
+    cap = UNBOUNDED_RATIO * hole_diameter_m
+    # the probes only need the material near the hole: clip the solid once (fewer triangles)
+    near = solid ^ _tube(0.0, cap * 1.01, z0 - 1e-4, z1 + 1e-4, T, n=PROBE_SIDES)
 
-    hi = UNBOUNDED_RATIO * hole_diameter_m
-    if full(hi):
-        return math.inf
-    lo = r * 1.02
-    if not full(lo):
-        return 2.0 * lo  # hardly any wall: the thinnest hub the search can state
-    while hi - lo > RADIUS_TOLERANCE * r:
+    def full(R: float) -> bool:
+        return _fraction(near, _tube(r * 1.005, R, z0, z1, T, n=PROBE_SIDES)) >= 1.0 - _FULL
+
+    # bracket the wall by doubling its thickness from a quarter of the radius, then bisect
+    # to RADIUS_TOLERANCE of the radius or WALL_TOLERANCE of the wall, whichever is larger
+    lo, hi = r * 1.02, r * 1.25
+    if not full(hi):
+        if not full(lo):
+            return 2.0 * lo  # hardly any wall: the thinnest hub the search can state
+    else:
+        while True:
+            lo, hi = hi, min(r + 2.0 * (hi - r), cap)
+            if full(hi):
+                if hi >= cap:
+                    return math.inf
+                continue
+            break
+    while hi - lo > max(RADIUS_TOLERANCE * r, WALL_TOLERANCE * (lo - r)):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if full(mid) else (lo, mid)
     return 2.0 * lo
