@@ -19,8 +19,9 @@ The resistance is the joint's friction:
   few grams diverges); the grip must carry it or the part slips.
 * When the cell's press presses (``by == "press"``), the robot leaves the part on the mouth
   (the plan's hand-over pose) and lets go; then the RAM, a fixed constraint whose target
-  moves along the mate axis at the process's insertion speed with the press's ``max_force``
-  as its force limit, pushes it home against ``F(x)`` applied to the part. The ram force
+  moves along the mate axis at the process's insertion speed with a force limit of
+  ``RAM_MARGIN F_typical + RAM_EXTRA_N`` (at most the press's ``max_force``), pushes it home
+  against ``F(x)`` applied to the part. The ram force
   ``F(x)`` plus the axial force of the rigid contacts is recorded.
 * Once home (within ``SEATED_M`` of the full depth), the joint holds the part: a fixed
   constraint at its pose with the press force as its force limit (a released press-fitted
@@ -46,6 +47,8 @@ from ..planner.trajectory import quat_xyzw_from_matrix
 
 ON_AXIS_M = 1e-3
 """The part counts as engaged only within this distance of the mate axis."""
+RAM_MARGIN = 1.5
+RAM_EXTRA_N = 50.0
 SEATED_M = 0.1e-3
 """Engaged to within this of the full depth counts as home."""
 SPEED_SCALE_M_S = 1e-3
@@ -124,6 +127,14 @@ class PressRecorder:
             return 0.0
         return min(max(self.stroke_m - to_go, 0.0), self.stroke_m)
 
+    @property
+    def ram_force_N(self) -> float:
+        """The ram's force limit: what the stroke needs (``RAM_MARGIN`` times the typical
+        press force plus ``RAM_EXTRA_N`` for guidance and weight), at most the press's max.
+        A force-controlled press stops pushing at that, as a real one does at a shoulder
+        (at the press's full 10 kN the solver drove a seated cap 1.4 mm into its barrel)."""
+        return min(self.press_max_force_N, RAM_MARGIN * self.force_full_N + RAM_EXTRA_N)
+
     def force_at_N(self, x: float) -> float:
         """Resistance at travel ``x``: grows with the contact length up to ``depth_m``."""
         if self.depth_m <= 0:
@@ -180,13 +191,13 @@ class PressRecorder:
             T = self.world.pose(self.body)
             self._ram_from = T[:3, 3].copy()
             self._ram_quat = quat_xyzw_from_matrix(self.R_seated)
-            self._hold = self.world.add_pose_constraint(self.body, T, self.press_max_force_N)
+            self._hold = self.world.add_pose_constraint(self.body, T, self.ram_force_N)
         # the ram runs on the mate axis through the seat (the press is aligned with the bore),
         # from where the robot left the part along the axis
         to_go = float((self.p_seated_m - self._ram_from) @ self.axis_world)
         left = max(to_go - self.ram_speed_m_s * (t - self.t_ram_s), 0.0)
         target = self.p_seated_m - self.axis_world * left
-        self.world.move_pose_constraint(self._hold, target, self._ram_quat, self.press_max_force_N)
+        self.world.move_pose_constraint(self._hold, target, self._ram_quat, self.ram_force_N)
         if f > 0:
             com = self.world.com_position_m(self.body)
             self.world.apply_force(self.body, -1, -f * self.axis_world, com)
