@@ -7,9 +7,10 @@ import pytest
 
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.check import check_assembly
-from asmplan.planner.motion import plan_product
+from asmplan.parts.models import ProductGeometry
 from asmplan.planner.plan import PlannerSettings
 from asmplan.planner.press import PressRequiredError
+from asmplan.planner.product import plan_product
 from tests.conftest import example_path
 
 PRESS_EXAMPLES = ("bearing_housing", "hinge", "pneumatic_cylinder")
@@ -18,7 +19,7 @@ PRESS_EXAMPLES = ("bearing_housing", "hinge", "pneumatic_cylinder")
 @pytest.mark.parametrize("name", PRESS_EXAMPLES)
 def test_example_checks_clean_with_press_forces(name):
     product = load_product(example_path(name))
-    result = check_assembly(product)
+    result = check_assembly(product, ProductGeometry(product))
     assert result.success, result.reason
     assert not [f for f in result.findings if f.severity == "error"]
     kinds = {m.kind for m in product.mates}
@@ -29,7 +30,7 @@ def test_example_checks_clean_with_press_forces(name):
 @pytest.mark.parametrize("name", PRESS_EXAMPLES)
 def test_example_plans_end_to_end_with_its_press(name):
     product = load_product(example_path(name))
-    plan = plan_product(product, PlannerSettings()).plan
+    plan = plan_product(product, ProductGeometry(product), PlannerSettings()).plan
     pressed = [s for s in plan.steps if s.press is not None]
     assert pressed and all(s.press.by == "press" for s in pressed)
     for s in pressed:  # the press seats the part: the plan ends at the seated pose
@@ -42,4 +43,4 @@ def test_without_the_press_the_bearing_unit_fails_where_a_real_cell_would(tmp_pa
     path = tmp_path / "no_press.yaml"
     path.write_text(text)
     with pytest.raises(PressRequiredError, match="use a press"):
-        plan_product(load_product(path), PlannerSettings())
+        plan_product(_p := load_product(path), ProductGeometry(_p), PlannerSettings())

@@ -17,6 +17,7 @@ import pytest
 
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.check import check_assembly
+from asmplan.parts.models import ProductGeometry
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "press"
 
@@ -52,7 +53,7 @@ CASES = {
 def test_press_force_within_10_percent_of_hand_computed_lame(name):
     mate, deltas, g = CASES[name]
     product = load_product(FIXTURES / f"{name}.yaml")
-    result = check_assembly(product)
+    result = check_assembly(product, ProductGeometry(product))
     assert result.success, result.reason
     pf = result.press_fit(mate)
     assert pf is not None
@@ -69,7 +70,8 @@ def test_press_force_within_10_percent_of_hand_computed_lame(name):
 
 
 def test_steel_dowel_needs_kilonewtons():
-    pf = check_assembly(load_product(FIXTURES / "steel_pin_in_steel.yaml")).press_fit("dowel_press")
+    product = load_product(FIXTURES / "steel_pin_in_steel.yaml")
+    pf = check_assembly(product, ProductGeometry(product)).press_fit("dowel_press")
     assert 5e3 < pf.force_N[1] < 7e3  # hand: 6.24 kN at 20 um
 
 
@@ -77,7 +79,7 @@ def test_hollow_male_rings_pass_the_feature_check():
     # a bearing ring and a bushing are male features with a bore: before, the check said
     # "expected the shaft to be material out to ... found 13 % of that volume empty"
     for name in ("ring_in_aluminium", "bushing_in_steel"):
-        result = check_assembly(load_product(FIXTURES / f"{name}.yaml"))
+        result = check_assembly(_p := load_product(FIXTURES / f"{name}.yaml"), ProductGeometry(_p))
         assert not [f for f in result.findings if f.severity == "error"], result.findings
 
 
@@ -86,7 +88,7 @@ def test_declared_hub_diameter_replaces_the_measure(tmp_path):
     text = text.replace("fit: H7/s6}", "fit: H7/s6, hub_diameter: 16}")
     path = tmp_path / "p.yaml"
     path.write_text(text)
-    pf = check_assembly(load_product(path)).press_fit("dowel_press")
+    pf = check_assembly(_p := load_product(path), ProductGeometry(_p)).press_fit("dowel_press")
     assert pf.hub_outer_source == "declared"
     hand = lame_force(20e-6, 8e-3, 10e-3, 16e-3, 0.0, *STEEL, *STEEL, 0.10)
     assert pf.force_N[1] == pytest.approx(hand, rel=1e-9)

@@ -8,9 +8,10 @@ import pytest
 
 from asmplan.knowledge.errors import ProductError
 from asmplan.knowledge.loader import load_product
-from asmplan.planner.motion import plan_product
+from asmplan.parts.models import ProductGeometry
 from asmplan.planner.plan import Plan, PlannerSettings
 from asmplan.planner.press import PressRequiredError, push_capacity
+from asmplan.planner.product import plan_product
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "press"
 DOWEL = FIXTURES / "steel_pin_in_steel.yaml"
@@ -27,7 +28,7 @@ def _with_press(tmp_path, max_force: str) -> Path:
 def test_press_fit_beyond_the_gripper_fails_at_planning_with_the_numbers():
     product = load_product(DOWEL)
     with pytest.raises(PressRequiredError) as info:
-        plan_product(product, PlannerSettings(), sequence=["block", "dowel"])
+        plan_product(product, ProductGeometry(product), PlannerSettings(), sequence=["block", "dowel"])
     err = info.value
     # 8 mm H7/s6 steel in steel, 10 mm: 2.5 / 6.25 / 10 kN (tests/parts/test_press_fit_geometry)
     assert err.force_N[0] == pytest.approx(2.50e3, rel=0.02)
@@ -47,12 +48,12 @@ def test_press_fit_beyond_the_gripper_fails_at_planning_with_the_numbers():
 def test_too_weak_a_press_fails_with_its_max(tmp_path):
     product = load_product(_with_press(tmp_path, "5000"))
     with pytest.raises(PressRequiredError, match=r"the press max 5(\.0)? kN: use a stronger press"):
-        plan_product(product, PlannerSettings(), sequence=["block", "dowel"])
+        plan_product(product, ProductGeometry(product), PlannerSettings(), sequence=["block", "dowel"])
 
 
 def test_with_a_press_the_step_is_a_press_operation_with_a_firm_grip(tmp_path):
     product = load_product(_with_press(tmp_path, "20000"))
-    plan = plan_product(product, PlannerSettings(), sequence=["block", "dowel"]).plan
+    plan = plan_product(product, ProductGeometry(product), PlannerSettings(), sequence=["block", "dowel"]).plan
     step = plan.step("dowel")
     assert step.press is not None and step.press.by == "press"
     assert step.press.force_N[1] == pytest.approx(6.25e3, rel=0.02)
@@ -65,7 +66,7 @@ def test_with_a_press_the_step_is_a_press_operation_with_a_firm_grip(tmp_path):
 
 def test_gripper_presses_a_light_transition_fit_and_the_clamp_carries_it():
     product = load_product(FIXTURES / "pin_in_pom.yaml")
-    plan = plan_product(product, PlannerSettings(), sequence=["block", "pin"]).plan
+    plan = plan_product(product, ProductGeometry(product), PlannerSettings(), sequence=["block", "pin"]).plan
     step = plan.step("pin")
     assert step.press.by == "gripper"
     # H7/js6 at 6 mm: -4..+16 um; interferes with probability Phi(-6 / (sqrt(12^2 + 8^2) / 6))

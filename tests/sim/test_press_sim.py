@@ -8,8 +8,8 @@ import pytest
 
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.models import ProductGeometry
-from asmplan.planner.motion import plan_product
 from asmplan.planner.plan import PlannerSettings
+from asmplan.planner.product import plan_product
 from asmplan.sim.fidelity import BALANCED, FAST
 from asmplan.sim.simulate import simulate_plan
 
@@ -24,7 +24,7 @@ def test_pressed_dowel_goes_home_with_the_lame_force_and_stays(tmp_path, fidelit
     path.write_text(text)
     product = load_product(path)
     geometry = ProductGeometry(product)
-    plan = plan_product(product, PlannerSettings(), sequence=["block", "dowel"]).plan
+    plan = plan_product(product, ProductGeometry(product), PlannerSettings(), sequence=["block", "dowel"]).plan
     result = simulate_plan(plan, product, geometry, fidelity).steps[1]
     assert result.success, result.reasons
     press = result.press
@@ -42,7 +42,7 @@ def test_pressed_dowel_goes_home_with_the_lame_force_and_stays(tmp_path, fidelit
 
 def test_gripper_pressed_transition_fit_at_balanced():
     product = load_product(FIXTURES / "pin_in_pom.yaml")
-    plan = plan_product(product, PlannerSettings(), sequence=["block", "pin"]).plan
+    plan = plan_product(product, ProductGeometry(product), PlannerSettings(), sequence=["block", "pin"]).plan
     result = simulate_plan(plan, product, ProductGeometry(product), BALANCED).steps[1]
     assert result.success, result.reasons
     assert result.press["by"] == "gripper" and result.press["home"]
