@@ -29,6 +29,7 @@ from .planner.plan import Plan, PlannerSettings
 from .planner.product import plan_product, ranked_sequences
 from .planner.sequence import SequencePlan, SequenceSettings, plan_sequence
 from .sim.fidelity import Fidelity, preset
+from .sim.pose_error import PoseError
 from .sim.results import PlanResults
 from .sim.simulate import PipelinedSimulation, resolve_workers, simulate_plan
 
@@ -49,6 +50,8 @@ class RunSettings:
     """Processes that simulate steps (None: see ``simulate_plan``; 1 inside your own pool).
     With more than one, each step is simulated while the next ones are planned, and
     ``timings_s["simulate"]`` is the time simulation took after planning ended."""
+    pose_error: PoseError | None = None
+    """A robot pose error applied at every insertion (``--pose-error``), or None."""
 
     @property
     def fidelity_preset(self) -> Fidelity:
@@ -130,7 +133,8 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
     n_moving = sum(not product.is_fixtured(p) for p in product.part_names)
     workers = resolve_workers(settings.workers, n_moving) if settings.simulate else 1
     # with several worker processes, each step is simulated as soon as it is planned
-    pipe = (PipelinedSimulation(product, geometry, fidelity, workers=workers, cull=settings.cull)
+    pipe = (PipelinedSimulation(product, geometry, fidelity, workers=workers, cull=settings.cull,
+                                pose_error=settings.pose_error)
             if workers > 1 and result.sequence is not None else None)
 
     def sim_progress(i: int, n: int, part: str, status: str) -> None:
@@ -160,7 +164,8 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
             else:
                 result.results = simulate_plan(result.plan, product, geometry, fidelity,
                                                cull=settings.cull, workers=1,
-                                               progress=sim_progress)
+                                               progress=sim_progress,
+                                               pose_error=settings.pose_error)
             # the fits the preset does not resolve (computed once, by the simulation)
             result.warnings.extend(result.results.warnings)
             # each step's own warnings stay with the step (results.json, the report's step

@@ -35,7 +35,7 @@ from asmplan.planner.trajectory import (
 from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.execute import execute_step
 from asmplan.sim.fidelity import Fidelity
-from asmplan.sim.gripper import Gripper, GripperSpec
+from asmplan.sim.gripper import CoupledGripper, Gripper, GripperSpec
 from asmplan.sim.records import StepOutcome, StepRecord, SuccessCriteria
 
 G = 9.81
@@ -125,6 +125,43 @@ def run_seed_cycle(fidelity: Fidelity, part: BoxPart | None = None,
         target[:3, 3] += translation_m
         record, outcome = execute_step(world, gripper, body, traj, T_world_part_target=target)
     return record, outcome, traj
+
+
+# --------------------------------------------------------------------------------------------
+# Held-part drift along a tilted closing axis
+# --------------------------------------------------------------------------------------------
+def held_drift_m(fidelity: Fidelity, tilt_rad: float, part: BoxPart | None = None,
+                 coupled: bool = False) -> float:
+    """Largest travel (m) of ``part`` along the gripper's closing axis, relative to the palm,
+    over the seed cycle's clamp-to-lower span (0.1-3.5 s), with the closing axis tilted
+    ``tilt_rad`` from horizontal (pi/2: vertical, the part hangs on the lower finger).
+
+    The part starts held between the pads in the air (no table: with a tilted closing axis
+    it cannot stand between them) and the seed cycle's motion is followed, its commanded
+    force never below the hold value (1.57 N) before the release.
+    """
+    part = part or BoxPart()
+    c, sn = math.cos(tilt_rad), math.sin(tilt_rad)
+    R_tilt = np.array([[1.0, 0.0, 0.0], [0.0, c, -sn], [0.0, sn, c]])
+    T_tcp = pose((0.0, 0.0, 0.3), R_DOWN @ R_tilt)
+    with BulletWorld(fidelity) as world:
+        body = world.add_body((box_piece(part.size_m),), part.mass_kg, T_tcp.copy(),
+                              inertia_kgm2=box_inertia(part.mass_kg, part.size_m),
+                              friction=part.friction, name="box")
+        cls = CoupledGripper if coupled else Gripper
+        gripper = cls(world, GripperSpec(), T_tcp, opening_m=part.size_m[1],
+                      carried_mass_kg=part.mass_kg)
+        traj = seed_cycle(parse_phase_table(SEED_PHASE_TABLE_CSV), T_tcp, lift_m=0.05,
+                          translation_m=(0.1, 0.0, 0.0))
+        hold = np.where(traj.t_s < 3.5, np.maximum(traj.clamp_force_N, 1.57), traj.clamp_force_N)
+        traj = Trajectory(t_s=traj.t_s, T_world_gripper=traj.T_world_gripper,
+                          clamp_force_N=hold, phases=traj.phases)
+        record, _ = execute_step(world, gripper, body, traj)
+    t = record.t_s
+    span = (t >= 0.1) & (t <= 3.5)
+    y = np.array([(np.linalg.inv(Tg) @ Tp)[1, 3] for Tg, Tp
+                   in zip(record.T_world_gripper[span], record.T_world_part[span], strict=True)])
+    return float(y.max() - y.min())
 
 
 # --------------------------------------------------------------------------------------------
@@ -234,7 +271,90 @@ def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_
         target = np.eye(4)
         target[:3, 3] = [x, y, seated_centre_z]
         return execute_step(world, gripper, pin, traj, criteria=criteria,
-                            T_world_part_target=target, mate_axis_world=(0.0, 0.0, -1.0))
+                            T_world_part_target=target, mate_axis_world=(0.0, 0.0, -1.0),
+                            insertion_length_m=s.hole_depth_m)
+
+
+# --------------------------------------------------------------------------------------------
+# Whitney's two-point contact (jam) depth: a peg held at a fixed tilt, pushed into a hole
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class JamScene:
+    """A 10 mm steel peg held at a fixed tilt (a stiff wrist: its rotational inertia is set
+    ``rotational_stiffening`` times higher and its angular velocity is zeroed after every
+    step, so contact torques cannot turn it; it translates freely, at most ``max_speed_mps``
+    fast, as a robot feeds near contact), pushed down
+    with ``push_N`` and sideways with ``side_N`` into a blind hole (no chamfer) of a fixed
+    block. The hole polygon has a flat face at +x and -x (the tilt plane), the peg prism a
+    vertex there, so the planar two-point geometry holds exactly."""
+
+    peg_diameter_m: float = 0.010
+    peg_length_m: float = 0.030
+    hole_depth_m: float = 0.020
+    hole_sides: int = 16
+    block_size_m: tuple[float, float, float] = (0.04, 0.04, 0.03)
+    friction: float = 0.3
+    push_N: float = 2.0
+    side_N: float = 0.5
+    max_speed_mps: float = 0.005
+    settle_s: float = 1.0
+    rotational_stiffening: float = 1e6
+
+
+def whitney_jam_depth_m(clearance_m: float, tilt_rad: float, peg_diameter_m: float = 0.010
+                        ) -> float:
+    """Whitney's two-point contact insertion depth l* = (D - d cos t) / sin t, m: the peg
+    length inside the hole (along its axis, from the leading corner to the mouth contact)
+    at which a peg tilted by ``tilt_rad`` touches both walls; D = d + ``clearance_m``."""
+    D = peg_diameter_m + clearance_m
+    return (D - peg_diameter_m * math.cos(tilt_rad)) / math.sin(tilt_rad)
+
+
+def jam_depth_m(fidelity: Fidelity, clearance_m: float, tilt_rad: float,
+                scene: JamScene | None = None) -> float:
+    """Simulated two-point contact depth (m, as :func:`whitney_jam_depth_m` defines it) of
+    the peg of ``scene`` tilted by ``tilt_rad`` in a hole ``clearance_m`` wider (diametral)."""
+    s = scene or JamScene()
+    d = s.peg_diameter_m
+    D = d + clearance_m
+    H = s.block_size_m[2]
+    with BulletWorld(fidelity) as world:
+        block = block_with_holes_pieces(s.block_size_m, (HoleSpec((0.0, 0.0), D / 2.0,
+                                                                  s.hole_depth_m, s.hole_sides),))
+        T_block = np.eye(4)
+        T_block[2, 3] = H / 2.0
+        world.add_body(block, 0.0, T_block, friction=s.friction, name="block")
+        L = s.peg_length_m
+        mass = 7800.0 * math.pi * (d / 2.0) ** 2 * L
+        # axis u = (-sin t, 0, cos t) (top leans to -x), across e = (cos t, 0, sin t)
+        c, sn = math.cos(tilt_rad), math.sin(tilt_rad)
+        u, e = np.array([-sn, 0.0, c]), np.array([c, 0.0, sn])
+        R = np.column_stack([e, np.array([0.0, 1.0, 0.0]), u])
+        # leading (+x) bottom corner 2 um off the +x wall, 0.05 mm below the mouth
+        corner = np.array([D / 2.0 - 2e-6, 0.0, H - 0.05e-3])
+        bottom = corner - (d / 2.0) * e
+        T_peg = np.eye(4)
+        T_peg[:3, :3] = R
+        T_peg[:3, 3] = bottom + (L / 2.0) * u
+        peg = world.add_body((ConvexPiece(kind="cylinder", T_part_piece=np.eye(4),
+                                          radius_m=d / 2.0, length_m=L),),
+                             mass, T_peg, inertia_kgm2=cylinder_inertia(mass, d / 2.0, L)
+                             * s.rotational_stiffening, friction=s.friction, name="peg")
+        force = [s.side_N, 0.0, -s.push_N]
+        for _ in range(round(s.settle_s / fidelity.dt_s)):
+            world.apply_force(peg, -1, force, world.com_position_m(peg).tolist())
+            world.step()
+            v = world.velocity(peg)[0]
+            speed = float(np.linalg.norm(v))
+            if speed > s.max_speed_mps:  # a robot feeding slowly near contact
+                v = v * (s.max_speed_mps / speed)
+            world.set_velocity(peg, v, (0.0, 0.0, 0.0))  # the wrist holds the tilt
+        T = world.pose(peg)
+    u = T[:3, 2]
+    bottom = T[:3, 3] - (L / 2.0) * u
+    e = T[:3, 0]
+    trailing = bottom - (d / 2.0) * e  # the (-x) bottom corner, on the side line
+    return float((H - trailing[2]) / u[2])
 
 
 def entered_depth_m(record: StepRecord, scene: PinHole | None = None) -> float:
@@ -249,6 +369,7 @@ __all__ = [
     "SEED_PHASE_TABLE_CSV",
     "BoxPart",
     "G",
+    "JamScene",
     "PinHole",
     "add_box_and_gripper",
     "box_inertia",
@@ -256,8 +377,11 @@ __all__ = [
     "constant_acceleration_lift",
     "cylinder_inertia",
     "entered_depth_m",
+    "held_drift_m",
+    "jam_depth_m",
     "lift_slip_m",
     "pin_insertion",
     "pose",
     "run_seed_cycle",
+    "whitney_jam_depth_m",
 ]

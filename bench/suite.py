@@ -74,8 +74,10 @@ def _bounds() -> tuple[Bound, ...]:
     out = []
     for p in ("fast", "balanced", "accurate"):
         out.append(Bound("seed_force_mae_N", p, 0.005, "N",
-                         "6x below the paper's 0.03 N; measured <= 0.0004 N at every preset "
-                         "(docs/physics.md)"))
+                         "MAE <= 0.03 N as in the paper, by construction: the fingers are "
+                         "force-controlled, so measured equals commanded (<= 0.0004 N at every "
+                         "preset); the planner's predicted profile is compared with the "
+                         "paper's Table 4 in seed_profile_error_N"))
         out.append(Bound("slip_threshold_error", p, 0.03, "",
                          "measured within 0.4 % (docs/physics.md); 3 % = 5 bisection steps of "
                          "0.6 %, well inside the 10 % the slip tests allow"))
@@ -99,6 +101,20 @@ def _bounds() -> tuple[Bound, ...]:
         Bound("fit_penetration_m", "accurate", 0.02e-3, "m",
               "measured 3-10 um (docs/physics.md)"),
     ]
+    for p in ("balanced", "accurate"):
+        out.append(Bound("jam_depth_error_m", p, 0.1e-3, "m",
+                         "issue 16: Whitney's l* = (D - d cos t) / sin t within 0.1 mm for "
+                         "c >= 0.05 mm at 5 deg (millimetre units; smaller tilts are reported, "
+                         "not asserted: the solver's contact compliance, ~20 um across the "
+                         "wedge, grows as 1 / sin t)"))
+        out.append(Bound("rim_capture_mismatch", p, 0.0, "",
+                         "capture boundary |e0| < c/2 + chamfer width: an unchamfered pin "
+                         "0.5 mm off stays on the rim, 0.02 mm off goes in"))
+    for p in ("fast", "balanced", "accurate"):
+        out.append(Bound("held_drift_m", p, 0.1e-3, "m",
+                         "issue 16: the held part's travel along the closing axis over the "
+                         "seed cycle, closing axis horizontal, 0.1 rad and vertical; measured "
+                         "<= 0.015 mm"))
     return tuple(out)
 
 
@@ -267,8 +283,127 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
             if c > 0:
                 figures.append(AccuracyFigure(name, scen, "fit_penetration_m", run.max_penetration_m,
                                               "m", run.wall_s, resolvable, note))
+        figures.extend(contact_figures(fid))
+        if name == presets[0]:
+            figures.extend(seed_profile_figures(name))
         say(f"accuracy {name}: {sum(f.wall_s for f in figures if f.preset == name):.1f} s")
     return AccuracyResult(tuple(figures), reference, REFERENCE_DT_S, convergence)
+
+
+JAM_CLEARANCES_M: tuple[float, ...] = (0.01e-3, 0.05e-3, 0.1e-3, 0.5e-3)
+JAM_TILTS_DEG: tuple[float, ...] = (0.5, 1.0, 2.0, 5.0)
+DRIFT_TILTS_RAD: tuple[float, ...] = (0.0, 0.1, math.pi / 2)
+
+
+def contact_figures(fid: Any) -> list[AccuracyFigure]:
+    """Issue 16's validation scenes at one preset, each against its analytic answer:
+    Whitney's jam depth (every clearance x tilt whose l* fits the 20 mm hole; asserted at
+    5 deg for c >= 0.05 mm), the capture boundary of an unchamfered pin (0.5 mm off: rim;
+    0.02 mm off: in) and the held part's drift along its closing axis at three tilts."""
+    from asmplan.sim import peers
+
+    from .scenarios import (
+        JamScene,
+        entered_depth_m,
+        held_drift_m,
+        jam_depth_m,
+        whitney_jam_depth_m,
+    )
+    from .scenarios import pin_insertion as scene_pin_insertion
+
+    out: list[AccuracyFigure] = []
+    for c in JAM_CLEARANCES_M:
+        for t_deg in JAM_TILTS_DEG:
+            t = math.radians(t_deg)
+            ref = whitney_jam_depth_m(c, t)
+            if ref > 0.018:
+                continue
+            t0 = time.perf_counter()
+            got = jam_depth_m(fid, c, t)
+            asserted = (t_deg == 5.0 and c >= 0.05e-3 - 1e-12
+                        and fid.bullet_units_per_m != 1.0)
+            wall = time.perf_counter() - t0
+            out.append(AccuracyFigure(
+                fid.name, f"Whitney jam c = {c * 1e3:.2f} mm, t = {t_deg:g} deg",
+                "jam_depth_error_m", got - ref, "m", wall, asserted,
+                f"l* = {ref * 1e3:.3f} mm, simulated {got * 1e3:.3f} mm; PyBullet "
+                f"{wall / JamScene().settle_s:.2f} wall s per simulated s"))
+            if fid.name == "balanced" and peers.available():
+                mj, mj_cost = peers.mujoco_jam_depth_m(fid.dt_s, c, t)
+                out.append(AccuracyFigure(
+                    fid.name, f"MuJoCo peer (dt = {fid.dt_s:g} s): Whitney jam c = "
+                    f"{c * 1e3:.2f} mm, t = {t_deg:g} deg", "peer_jam_depth_error_m", mj - ref,
+                    "m", mj_cost * JamScene().settle_s, False,
+                    f"simulated {mj * 1e3:.3f} mm; MuJoCo {mj_cost:.2f} wall s per simulated "
+                    f"s (elliptic cone, impratio 10, solref 2 dt, noslip 20)"))
+    for e, expect_in in ((0.5e-3, False), (0.02e-3, True)):
+        t0 = time.perf_counter()
+        record, _ = scene_pin_insertion(fid, 0.1e-3, lateral_offset_m=e)
+        went_in = entered_depth_m(record) > 2e-3
+        out.append(AccuracyFigure(
+            fid.name, f"unchamfered pin {e * 1e3:.2f} mm off, c/2 = 0.1 mm",
+            "rim_capture_mismatch", float(went_in != expect_in), "", time.perf_counter() - t0,
+            fid.bullet_units_per_m != 1.0,
+            f"entered {entered_depth_m(record) * 1e3:.2f} mm (expected "
+            f"{'in' if expect_in else 'on the rim'})"))
+    for tilt in DRIFT_TILTS_RAD:
+        t0 = time.perf_counter()
+        d = held_drift_m(fid, tilt, coupled=True)
+        out.append(AccuracyFigure(fid.name, f"held drift, closing axis at {tilt:.2f} rad",
+                                  "held_drift_m", d, "m", time.perf_counter() - t0))
+    return out
+
+
+SEED_PART_MASS_KG = 0.16
+SEED_MU = 0.5
+
+
+def predicted_seed_profile(mass_kg: float = SEED_PART_MASS_KG, mu: float = SEED_MU
+                           ) -> dict[str, tuple[float, float]]:
+    """The planner's clamp-force model (per finger, no safety factor: ``m |g - a| / (2 mu)``,
+    ``planner/timing.py``) along the seed cycle's motion (lift 50 mm, translate 100 mm, lower,
+    min-jerk), per phase ``(min, max)`` in N: 0.16 kg at mu 0.5 holds with 1.57 N."""
+    import numpy as np
+
+    from .planner.trajectory import parse_phase_table, seed_cycle
+    from .scenarios import SEED_PHASE_TABLE_CSV, pose
+
+    traj = seed_cycle(parse_phase_table(SEED_PHASE_TABLE_CSV), pose((0.0, 0.0, 0.025)),
+                      lift_m=0.05, translation_m=(0.1, 0.0, 0.0), sample_dt_s=1e-3)
+    t = traj.t_s
+    p = traj.T_world_gripper[:, :3, 3]
+    a = np.gradient(np.gradient(p, t, axis=0), t, axis=0)
+    g = np.array([0.0, 0.0, -9.81])
+    f = mass_kg * np.linalg.norm(g - a, axis=1) / (2.0 * mu)
+    out = {}
+    for ph in traj.phases:
+        m = (t >= ph.t_start_s) & (t <= ph.t_end_s)
+        out[ph.name] = (float(f[m].min()), float(f[m].max()))
+    return out
+
+
+def seed_profile_figures(preset_name: str) -> list[AccuracyFigure]:
+    """The planner's predicted clamp force per phase of the seed cycle against the seed
+    paper's Table 4 (hold, lift, translate, lower; clamp and release are ramps the planner
+    commands, not predicts): the largest difference of the phase's min and max, N. Reported,
+    not asserted (the paper's motion profile is not published; ours is min-jerk)."""
+    from .planner.trajectory import parse_phase_table
+    from .scenarios import SEED_PHASE_TABLE_CSV
+
+    t0 = time.perf_counter()
+    pred = predicted_seed_profile()
+    table = {r.name: r for r in parse_phase_table(SEED_PHASE_TABLE_CSV)}
+    out = []
+    for ph in ("hold", "lift", "translate", "lower"):
+        lo, hi = pred[ph]
+        row = table[ph]
+        diff = max(abs(lo - row.force_min_N), abs(hi - row.force_max_N))
+        out.append(AccuracyFigure(
+            preset_name, f"planner clamp profile vs seed Table 4: {ph}", "seed_profile_error_N",
+            diff, "N", time.perf_counter() - t0, False,
+            f"predicted {lo:.3f}-{hi:.3f} N, paper {row.force_min_N:.2f}-{row.force_max_N:.2f} N "
+            f"(preset-independent)"))
+    return out
 
 
 @dataclass(frozen=True)

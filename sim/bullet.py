@@ -98,6 +98,30 @@ pybullet = _import_pybullet_quietly()
 MAX_COMPOUND_CHILDREN = 16
 """PyBullet drops compound children beyond this count silently."""
 
+MILLIMETRE_UNITS_PER_M = 1000.0
+"""``Fidelity.bullet_units_per_m`` of BALANCED and ACCURATE: Bullet length units per metre,
+the simulated world is in millimetres (mass kg, time s); FAST keeps metres (1.0).
+
+Bullet's collision code has absolute tolerances written for metre-sized objects. The one that
+decides contact at features: GJK stops when a new support point lies within 1e-2 units of a
+simplex vertex (``VORONOI_DEFAULT_EQUAL_VERTEX_THRESHOLD`` = 1e-4 units squared), so in metres
+every hull vertex within 1 cm of another is "the same point": a 10 mm 100-sided prism probed
+0.5 mm off its side measured 40-90 um too far, contacts appeared 40 um before touching and a
+tilted peg hung on the hole's mouth. In millimetres the threshold is 10 um of vertex spacing
+(a 10 mm 160-gon's are 0.2 mm apart) and EPA's tolerance 1 um. Every value crossing this
+module's boundary is converted: lengths and linear velocities x S, forces x S (kg mm / s^2),
+torques and inertias x S^2; a prismatic joint's damping (kg/s) is unchanged, a revolute's x S^2.
+Callers see SI only."""
+
+_PRIMITIVES_AS_HULLS = False
+
+# A multibody clamps every velocity coordinate to 100 units/s by default (0.1 m/s in mm);
+# raised to 1 km/s (the scene's speed guard acts long before).
+# Bullet's bound of a fixed pose constraint is one number for its linear rows (kg mm/s^2)
+# and its angular rows (kg mm^2/s^2): it is S^2 max_force_N, so that the torque bound is
+# max_force_N N m as it was in metres; the force bound is then S x max_force_N N: the robot's
+# position hold is stiff, as a robot's is.
+
 JointKind = Literal["fixed", "prismatic", "revolute"]
 _JOINT_TYPES = {
     "fixed": pybullet.JOINT_FIXED,
@@ -141,12 +165,14 @@ def pq_to_pose(position: Sequence[float], quat_xyzw: Sequence[float]) -> np.ndar
     return T
 
 
-def _pose_from_bullet(position: Sequence[float], quat_xyzw: Sequence[float]) -> np.ndarray:
+def _pose_from_bullet(position: Sequence[float], quat_xyzw: Sequence[float], units_per_m: float
+                      ) -> np.ndarray:
     """:func:`pq_to_pose` for PyBullet's own unit quaternions (its C conversion, ~10x faster
     in the per-step loop)."""
     T = np.eye(4)
     T[:3, :3] = np.reshape(pybullet.getMatrixFromQuaternion(quat_xyzw), (3, 3))
     T[:3, 3] = position
+    T[:3, 3] /= units_per_m
     return T
 
 
@@ -164,12 +190,13 @@ _OBJ_CACHE: dict[bytes, str] = {}
 _OBJ_CACHE_MAX = 512
 
 
-def _hulls_obj_text(hulls: Sequence[ConvexPiece]) -> str:
+def _hulls_obj_text(hulls: Sequence[ConvexPiece], units_per_m: float) -> str:
     """Wavefront OBJ text with one object per hull (vertices in the body frame), cached by
     content: a part is built in several steps' worlds, its hulls are computed once."""
     import hashlib
 
     h = hashlib.blake2b(digest_size=20)
+    h.update(repr(units_per_m).encode())
     for pc in hulls:
         assert pc.vertices_m is not None
         h.update(np.ascontiguousarray(pc.vertices_m, dtype=float).tobytes())
@@ -186,7 +213,7 @@ def _hulls_obj_text(hulls: Sequence[ConvexPiece]) -> str:
     for k, pc in enumerate(hulls):
         assert pc.vertices_m is not None
         R, t = pc.T_part_piece[:3, :3], pc.T_part_piece[:3, 3]
-        hull = convex_hull(pc.vertices_m @ R.T + t)
+        hull = convex_hull((pc.vertices_m @ R.T + t) * units_per_m)
         lines.append(f"o hull{k}")
         lines.extend(f"v {x!r} {y!r} {z!r}" for x, y, z in hull.vertices.tolist())
         lines.extend(
@@ -212,17 +239,100 @@ def _is_compound(group: Sequence[ConvexPiece]) -> bool:
     return piece.kind != "hull" and not np.array_equal(piece.T_part_piece, np.eye(4))
 
 
+PRISM_TOLERANCE_FRACTION = 0.05
+"""A cylinder is simulated as a prism inscribed in it whose radial error ``r (1 - cos(pi/n))``
+is at most this fraction of the preset's smallest resolvable diametral clearance
+(``Fidelity.min_resolvable_clearance_m``), so the fit's clearance changes by at most a
+tenth of it: 2.5 um at BALANCED (a 10 mm pin gets 100 sides), 1 um at ACCURATE (160 sides),
+20 um at FAST (36 sides)."""
+
+PRISM_MIN_SIDES = 16
+PRISM_MAX_SIDES = 256
+
+
+def prism_sides(radius_m: float, tolerance_m: float) -> int:
+    """Fewest sides (a multiple of 4, within [16, 256]) of a prism inscribed in a circle of
+    ``radius_m`` whose faces are at most ``tolerance_m`` inside it: r (1 - cos(pi/n)) <= tol."""
+    if not (radius_m > 0 and tolerance_m > 0):
+        raise ValueError(f"prism_sides: expected positive radius and tolerance, found "
+                         f"{radius_m}, {tolerance_m}")
+    ratio = min(1.0, tolerance_m / radius_m)
+    n = math.pi / math.acos(1.0 - ratio) if ratio < 1.0 else 4.0
+    n = 4 * math.ceil(n / 4 - 1e-9)
+    return int(min(PRISM_MAX_SIDES, max(PRISM_MIN_SIDES, n)))
+
+
+def exact_hull(piece: ConvexPiece, tolerance_m: float) -> ConvexPiece:
+    """The margin-free hull PyBullet simulates for a box or cylinder piece (same frame).
+
+    PyBullet's GEOM_BOX and GEOM_CYLINDER keep their collision margin (1 mm) inside the shape:
+    faces sit where declared but every edge and rim is rounded by the margin (a probe off a
+    10 mm box's edge measures 0.41 mm too far, off a cylinder's rim likewise). A hull with
+    zero margin has sharp edges. A box becomes its 8 corners; a cylinder a prism inscribed in
+    it (never larger than the part, so a fit never turns into an interference) with
+    :func:`prism_sides` sides, a vertex on the piece's +x axis. Hulls and spheres are
+    returned unchanged (a sphere's margin is its radius: exact)."""
+    if piece.kind == "box":
+        assert piece.half_extents_m is not None
+        h = np.asarray(piece.half_extents_m, dtype=float)
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)],
+                           dtype=float) * h
+        return ConvexPiece(kind="hull", T_part_piece=piece.T_part_piece, vertices_m=corners,
+                           name=piece.name)
+    if piece.kind == "cylinder":
+        n = prism_sides(piece.radius_m, tolerance_m)
+        ang = 2.0 * math.pi * np.arange(n) / n
+        ring = np.column_stack([piece.radius_m * np.cos(ang), piece.radius_m * np.sin(ang)])
+        half = 0.5 * piece.length_m
+        verts = np.vstack([np.column_stack([ring, np.full(n, -half)]),
+                           np.column_stack([ring, np.full(n, half)])])
+        return ConvexPiece(kind="hull", T_part_piece=piece.T_part_piece, vertices_m=verts,
+                           name=piece.name)
+    return piece
+
+
 PYBULLET_CONTACT_BREAKING_FRACTION = 0.02
 """PyBullet's default ``contactBreakingThreshold`` (Bullet's ``gContactBreakingThreshold``): a
 fraction of each collider's bounding radius, see the module docstring."""
 
-HULL_BOX_GROWTH_M = 2e-3
+HULL_BOX_GROWTH_UNITS = 2e-3
 """Bullet's bounding box of a hull collider (the OBJ compound) is the hulls' box grown by this
-much along every axis: PyBullet's 1 mm default margin, counted at creation by the hulls and by
+much along every axis: PyBullet's default margin of 0.001 units, counted at creation by the hulls and by
 their compound, before :meth:`BulletWorld.add_body` sets the margin to the fidelity's value.
 Measured: with it the probed breaking distances of five gear_unit parts match to 1e-4
 relative; without it they are 6-22 % larger than predicted. ``tests/sim/test_bullet.py``
 re-checks it."""
+
+
+BREAKING_RADIUS_CAP_UNITS = 2.0
+"""Measured: the breaking distance stops growing with the bounding radius at 2 Bullet units
+(2 mm here); from there it is ``fraction x 2 units`` plus :data:`BREAKING_CAP_EXTRA_M` (the
+two colliders' creation margins), 42 um at PyBullet's default fraction, for any larger body
+(``tests/sim/test_bullet.py``). In metres the cap (2 m) was never reached."""
+
+BREAKING_CAP_EXTRA_UNITS = 2e-3
+
+
+def default_breaking_fraction(fidelity: Fidelity) -> float:
+    """The world's breaking fraction: PyBullet's default (0.02) in metres; in millimetres the
+    fraction that makes the capped distance half the preset's smallest resolvable diametral
+    clearance (its radial gap: 25 um at BALANCED, 10 um at ACCURATE, less PyBullet's 2 um
+    of creation margins), so that no contact is created or kept across a gap the preset
+    claims to resolve (PyBullet's 0.02 gives 42 um)."""
+    units = float(fidelity.bullet_units_per_m)
+    if units == 1.0:
+        return PYBULLET_CONTACT_BREAKING_FRACTION
+    target_m = 0.5 * fidelity.min_resolvable_clearance_m - BREAKING_CAP_EXTRA_UNITS / units
+    cap_m = BREAKING_RADIUS_CAP_UNITS / units
+    return min(PYBULLET_CONTACT_BREAKING_FRACTION, max(target_m, 0.25 * target_m) / cap_m)
+
+
+def _breaking_distance_m(fraction: float, radius_m: float, units_per_m: float) -> float:
+    """Bullet's contact creation/breaking distance of a pair, m, for the smaller radius."""
+    cap = BREAKING_RADIUS_CAP_UNITS / units_per_m
+    if radius_m >= cap:
+        return fraction * cap + BREAKING_CAP_EXTRA_UNITS / units_per_m
+    return fraction * radius_m
 
 
 def _piece_box(piece: ConvexPiece) -> tuple[np.ndarray, np.ndarray]:
@@ -245,7 +355,7 @@ def _piece_box(piece: ConvexPiece) -> tuple[np.ndarray, np.ndarray]:
 
 
 def bounding_radius_m(group: Sequence[ConvexPiece], com_m: ArrayLike,
-                      R_link_inertial: np.ndarray) -> float:
+                      R_link_inertial: np.ndarray, units_per_m: float = 1.0) -> float:
     """Bullet's bounding radius ("angular motion disc") of one collider, m.
 
     Parameters
@@ -270,7 +380,7 @@ def bounding_radius_m(group: Sequence[ConvexPiece], com_m: ArrayLike,
     hi = np.max([b[1] for b in boxes], axis=0)
     half = 0.5 * (hi - lo)
     if any(pc.kind == "hull" for pc in group):
-        half = half + HULL_BOX_GROWTH_M
+        half = half + HULL_BOX_GROWTH_UNITS / units_per_m
     R = np.asarray(R_link_inertial, dtype=float)
     centre = R.T @ (0.5 * (hi + lo) - np.asarray(com_m, dtype=float))
     return float(np.linalg.norm(np.abs(R.T) @ half) + np.linalg.norm(centre))
@@ -451,19 +561,24 @@ class BulletWorld:
         self._states: list[int] = []
         self._state_steps: dict[int, int] = {}
         self._tmpdir: str | None = None
-        self._breaking_fraction = PYBULLET_CONTACT_BREAKING_FRACTION
+        self._S = float(fidelity.bullet_units_per_m)
+        self._S2 = self._S * self._S
+        self._breaking_fraction = default_breaking_fraction(fidelity)
+        self._joint_kinds: dict[int, tuple[str, ...]] = {}
+        self._probe: int | None = None
+        self._probe_r = 0.0
         cid = self._cid
-        pybullet.setGravity(*self.gravity_mps2.tolist(), physicsClientId=cid)
+        pybullet.setGravity(*(self._S * self.gravity_mps2).tolist(), physicsClientId=cid)
         pybullet.setPhysicsEngineParameter(
             fixedTimeStep=fidelity.dt_s,
             numSolverIterations=int(fidelity.solver_iterations),
             numSubSteps=0,
-            contactSlop=fidelity.contact_slop_m,
+            contactSlop=self._S * fidelity.contact_slop_m,
             erp=fidelity.erp,
             contactERP=fidelity.contact_erp,
             frictionERP=fidelity.friction_erp,
             enableConeFriction=int(fidelity.cone_friction),
-            contactBreakingThreshold=PYBULLET_CONTACT_BREAKING_FRACTION,
+            contactBreakingThreshold=self._breaking_fraction,
             deterministicOverlappingPairs=1,
             enableFileCaching=0,
             physicsClientId=cid,
@@ -518,23 +633,23 @@ class BulletWorld:
         types, radii, half, lengths, positions, quats = [], [], [], [], [], []
         for pc in pieces:
             pos, quat = pose_to_pq(pc.T_part_piece)
-            positions.append(pos)
+            positions.append([self._S * v for v in pos])
             quats.append(quat)
             if pc.kind == "box":
                 assert pc.half_extents_m is not None
                 types.append(pybullet.GEOM_BOX)
-                half.append(pc.half_extents_m.tolist())
+                half.append((self._S * pc.half_extents_m).tolist())
                 radii.append(0.0)
                 lengths.append(0.0)
             elif pc.kind == "cylinder":
                 types.append(pybullet.GEOM_CYLINDER)
                 half.append([0.0, 0.0, 0.0])
-                radii.append(float(pc.radius_m))
-                lengths.append(float(pc.length_m))
+                radii.append(self._S * float(pc.radius_m))
+                lengths.append(self._S * float(pc.length_m))
             elif pc.kind == "sphere":
                 types.append(pybullet.GEOM_SPHERE)
                 half.append([0.0, 0.0, 0.0])
-                radii.append(float(pc.radius_m))
+                radii.append(self._S * float(pc.radius_m))
                 lengths.append(0.0)
             else:
                 raise ValueError(f"expected a primitive piece, found kind {pc.kind!r}")
@@ -562,7 +677,7 @@ class BulletWorld:
         every child. The file lives in a temporary folder removed by :meth:`close` (PyBullet
         reads it again when the body is created).
         """
-        text = _hulls_obj_text(hulls)
+        text = _hulls_obj_text(hulls, self._S)
         if self._tmpdir is None:
             self._tmpdir = tempfile.mkdtemp(prefix="asmplan_bullet_")
         fd, path = tempfile.mkstemp(suffix=".obj", prefix="hulls_", dir=self._tmpdir)
@@ -658,6 +773,9 @@ class BulletWorld:
                     f"body {name!r}: inertia expected positive definite, found principal "
                     f"moments {moments.tolist()}"
                 )
+        if _PRIMITIVES_AS_HULLS and self.fidelity.collision_margin_m == 0.0:
+            tol = PRISM_TOLERANCE_FRACTION * self.fidelity.min_resolvable_clearance_m
+            pieces = tuple(exact_hull(pc, tol) for pc in pieces)
         hulls = [pc for pc in pieces if pc.kind == "hull"]
         prim_groups = self._group_primitives([pc for pc in pieces if pc.kind != "hull"])
         shapes: list[tuple[int, int]] = []  # (shape id, expected child count)
@@ -671,6 +789,8 @@ class BulletWorld:
         frac = 1.0 / n
         inertial_quat = quat_xyzw_from_matrix(axes).tolist()
         pos, quat = pose_to_pq(T_world_body)
+        pos = [self._S * v for v in pos]
+        com_u = (self._S * com).tolist()
         cid = self.client_id
         k = n - 1
         body = pybullet.createMultiBody(
@@ -679,14 +799,14 @@ class BulletWorld:
             baseVisualShapeIndex=-1,
             basePosition=pos,
             baseOrientation=quat,
-            baseInertialFramePosition=com.tolist(),
+            baseInertialFramePosition=com_u,
             baseInertialFrameOrientation=inertial_quat,
             linkMasses=[mass_kg * frac] * k,
             linkCollisionShapeIndices=[s[0] for s in shapes[1:]],
             linkVisualShapeIndices=[-1] * k,
             linkPositions=[[0.0, 0.0, 0.0]] * k,
             linkOrientations=[[0.0, 0.0, 0.0, 1.0]] * k,
-            linkInertialFramePositions=[com.tolist()] * k,
+            linkInertialFramePositions=[com_u] * k,
             linkInertialFrameOrientations=[inertial_quat] * k,
             linkParentIndices=[0] * k,
             linkJointTypes=[pybullet.JOINT_FIXED] * k,
@@ -701,17 +821,19 @@ class BulletWorld:
             link = j - 1
             kwargs: dict[str, float | list[float]] = {
                 "lateralFriction": float(friction),
-                "spinningFriction": float(spin),
-                "rollingFriction": float(rolling_friction),
+                "spinningFriction": self._S * float(spin),  # a length: torque / normal force
+                "rollingFriction": self._S * float(rolling_friction),
                 "restitution": float(restitution),
             }
             if link == -1:  # PyBullet's default damping (0.04 /s) is not physics; remove it
                 kwargs["linearDamping"] = 0.0
                 kwargs["angularDamping"] = 0.0
+                # body-wide; on a link it makes changeDynamics drop the call's other values
+                kwargs["maxJointVelocity"] = 1e3 * self._S
             if not static:
-                kwargs["localInertiaDiagonal"] = (moments * frac).tolist()
+                kwargs["localInertiaDiagonal"] = (self._S2 * moments * frac).tolist()
             if link == -1 and hulls:
-                kwargs["collisionMargin"] = float(self.fidelity.collision_margin_m)
+                kwargs["collisionMargin"] = self._S * float(self.fidelity.collision_margin_m)
             pybullet.changeDynamics(body, link, physicsClientId=cid, **kwargs)
         T_link_inertial = np.eye(4)
         T_link_inertial[:3, :3] = axes
@@ -724,7 +846,7 @@ class BulletWorld:
             n_links=k,
             inertia_kgm2=inertia,
             compound_links=frozenset(j - 1 for j, g in enumerate(groups) if _is_compound(g)),
-            bounding_radius_m=max(bounding_radius_m(g, com, axes) for g in groups),
+            bounding_radius_m=max(bounding_radius_m(g, com, axes, self._S) for g in groups),
         )
         return body
 
@@ -779,16 +901,16 @@ class BulletWorld:
             baseMass=float(base_mass_kg),
             baseCollisionShapeIndex=base_shape[0],
             baseVisualShapeIndex=-1,
-            basePosition=pos,
+            basePosition=[self._S * v for v in pos],
             baseOrientation=quat,
-            baseInertialFramePosition=list(base_com_m),
+            baseInertialFramePosition=[self._S * float(v) for v in base_com_m],
             baseInertialFrameOrientation=[0.0, 0.0, 0.0, 1.0],
             linkMasses=[float(s.mass_kg) for s in links],
             linkCollisionShapeIndices=[s[0] for s in link_shapes],
             linkVisualShapeIndices=[-1] * len(links),
-            linkPositions=[pose_to_pq(s.T_parent_link)[0] for s in links],
+            linkPositions=[[self._S * v for v in pose_to_pq(s.T_parent_link)[0]] for s in links],
             linkOrientations=[pose_to_pq(s.T_parent_link)[1] for s in links],
-            linkInertialFramePositions=[list(s.com_m) for s in links],
+            linkInertialFramePositions=[[self._S * float(v) for v in s.com_m] for s in links],
             linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]] * len(links),
             linkParentIndices=[s.parent + 1 for s in links],
             linkJointTypes=[_JOINT_TYPES[s.joint] for s in links],
@@ -798,9 +920,10 @@ class BulletWorld:
         if body < 0:
             raise BulletError(f"createMultiBody failed for articulated body {name!r}")
         self._check_shapes(body, name, [base_shape[1]] + [s[1] for s in link_shapes])
-        base_kwargs: dict[str, float | list[float]] = {"lateralFriction": float(base_friction)}
+        base_kwargs: dict[str, float | list[float]] = {"lateralFriction": float(base_friction),
+                                                       "maxJointVelocity": 1e3 * self._S}
         if base_inertia_diag_kgm2 is not None:
-            base_kwargs["localInertiaDiagonal"] = list(base_inertia_diag_kgm2)
+            base_kwargs["localInertiaDiagonal"] = [self._S2 * float(v) for v in base_inertia_diag_kgm2]
         pybullet.changeDynamics(body, -1, physicsClientId=cid, **base_kwargs)
         for i, spec in enumerate(links):
             kw: dict[str, float | list[float]] = {
@@ -808,19 +931,23 @@ class BulletWorld:
                 # anchors on the links (the gripper's fingers): every contact with them holds
                 # its anchor point while it sticks (Fidelity.friction_anchor)
                 "frictionAnchor": int(self.fidelity.friction_anchor),
-                "spinningFriction": float(spec.spinning_friction),
+                "spinningFriction": self._S * float(spec.spinning_friction),
                 "linearDamping": 0.0,
                 "angularDamping": 0.0,
-                "jointDamping": float(spec.joint_damping),
+                # N s/m = kg/s is unit-free in length; N m s/rad scales with S^2
+                "jointDamping": float(spec.joint_damping) * (self._S2 if spec.joint == "revolute"
+                                                             else 1.0),
             }
             if spec.inertia_diag_kgm2 is not None:
-                kw["localInertiaDiagonal"] = list(spec.inertia_diag_kgm2)
+                kw["localInertiaDiagonal"] = [self._S2 * float(v) for v in spec.inertia_diag_kgm2]
             if spec.limits is not None:
-                kw["jointLowerLimit"] = float(spec.limits[0])
-                kw["jointUpperLimit"] = float(spec.limits[1])
+                js = self._S if spec.joint == "prismatic" else 1.0
+                kw["jointLowerLimit"] = js * float(spec.limits[0])
+                kw["jointUpperLimit"] = js * float(spec.limits[1])
             pybullet.changeDynamics(body, i, physicsClientId=cid, **kw)
         pybullet.changeDynamics(body, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
         movable = [i for i, s in enumerate(links) if s.joint != "fixed"]
+        self._joint_kinds[body] = tuple(s.joint for s in links)
         self.disable_motors(body, movable)
         T_link_inertial = np.eye(4)
         T_link_inertial[:3, 3] = np.asarray(base_com_m, dtype=float)
@@ -833,10 +960,14 @@ class BulletWorld:
             T_link_inertial=T_link_inertial,
             n_links=len(links),
             compound_links=frozenset(j - 1 for j, g in enumerate(groups) if _is_compound(g)),
-            bounding_radius_m=max(bounding_radius_m(g, c, np.eye(3))
+            bounding_radius_m=max(bounding_radius_m(g, c, np.eye(3), self._S)
                                   for g, c in zip(groups, coms, strict=True)),
         )
         return body
+
+    def dynamic_bodies(self) -> list[int]:
+        """Ids of the bodies that can move (mass > 0), in creation order."""
+        return [b for b, info in self._bodies.items() if not info.static]
 
     def body_name(self, body: int) -> str:
         """Name given when the body was added."""
@@ -862,7 +993,7 @@ class BulletWorld:
         radius = self._bodies[body].bounding_radius_m
         if other is not None:
             radius = min(radius, self._bodies[other].bounding_radius_m)
-        return self._breaking_fraction * radius
+        return _breaking_distance_m(self._breaking_fraction, radius, self._S)
 
     def limit_contact_breaking_m(self, body: int, distance_m: float,
                                  others: Sequence[int] = ()) -> None:
@@ -889,7 +1020,9 @@ class BulletWorld:
         radius = self._bodies[body].bounding_radius_m
         if others:
             radius = min(radius, max(self._bodies[o].bounding_radius_m for o in others))
-        fraction = distance_m / radius
+        cap, extra = BREAKING_RADIUS_CAP_UNITS / self._S, BREAKING_CAP_EXTRA_UNITS / self._S
+        fraction = (max(distance_m - extra, 0.1 * distance_m) / cap if radius >= cap
+                    else distance_m / radius)
         if fraction < self._breaking_fraction:
             self._breaking_fraction = fraction
             pybullet.setPhysicsEngineParameter(contactBreakingThreshold=fraction,
@@ -899,33 +1032,56 @@ class BulletWorld:
         """Number of non-base links of a body."""
         return self._bodies[body].n_links
 
+    def probe_distance_m(self, body: int, point_m: Sequence[float]) -> float:
+        """Distance (m) from a world point to ``body``'s simulated collision shapes, as
+        Bullet computes it (``getClosestPoints`` against a 1 um sphere): compared with the
+        exact geometry it measures how much the simulator rounds edges and rims. The first
+        call adds a static probe body: not between :meth:`save_state` and a restore."""
+        cid = self.client_id
+        if self._probe is None:
+            r_units = 1e-6 * self._S
+            sid = pybullet.createCollisionShape(pybullet.GEOM_SPHERE, radius=r_units,
+                                                physicsClientId=cid)
+            self._probe = pybullet.createMultiBody(0.0, sid, basePosition=[0.0, 0.0, -1e3],
+                                                   physicsClientId=cid)
+            self._probe_r = r_units
+        pos = [self._S * float(v) for v in point_m]
+        pybullet.resetBasePositionAndOrientation(self._probe, pos, [0.0, 0.0, 0.0, 1.0],
+                                                 physicsClientId=cid)
+        pts = pybullet.getClosestPoints(body, self._probe, 0.1 * self._S, physicsClientId=cid)
+        if not pts:
+            return math.inf
+        return (min(p[8] for p in pts) + self._probe_r) / self._S
+
     # ---------------------------------------------------------------- state queries
     def pose(self, body: int, link: int = -1) -> np.ndarray:
         """World pose (4, 4) of a body's link frame (-1: base = part frame)."""
         cid = self.client_id
         if link == -1:
             p, q = pybullet.getBasePositionAndOrientation(body, physicsClientId=cid)
-            return _pose_from_bullet(p, q) @ self._bodies[body].T_inertial_link
+            return _pose_from_bullet(p, q, self._S) @ self._bodies[body].T_inertial_link
         st = pybullet.getLinkState(body, link, computeForwardKinematics=1, physicsClientId=cid)
-        return _pose_from_bullet(st[4], st[5])
+        return _pose_from_bullet(st[4], st[5], self._S)
 
     def set_pose(self, body: int, T_world_body: np.ndarray) -> None:
         """Teleport a body's base link frame to ``T_world_body`` (4, 4)."""
         T_world_inertial = np.asarray(T_world_body, dtype=float) @ self._bodies[body].T_link_inertial
         p, q = pose_to_pq(T_world_inertial)
-        pybullet.resetBasePositionAndOrientation(body, p, q, physicsClientId=self.client_id)
+        pybullet.resetBasePositionAndOrientation(body, [self._S * v for v in p], q,
+                                                 physicsClientId=self.client_id)
 
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         """Linear velocity of the base centre of mass (3,) m/s and angular velocity (3,) rad/s."""
         v, w = pybullet.getBaseVelocity(body, physicsClientId=self.client_id)
-        return np.asarray(v, dtype=float), np.asarray(w, dtype=float)
+        return np.asarray(v, dtype=float) / self._S, np.asarray(w, dtype=float)
 
     def set_velocity(
         self, body: int, linear_mps: Sequence[float], angular_radps: Sequence[float]
     ) -> None:
         """Set the base velocity (world frame)."""
         pybullet.resetBaseVelocity(
-            body, list(linear_mps), list(angular_radps), physicsClientId=self.client_id
+            body, [self._S * float(v) for v in linear_mps], list(angular_radps),
+            physicsClientId=self.client_id
         )
 
     def kinetic_energy_J(self, body: int, velocity: tuple[np.ndarray, np.ndarray] | None = None,
@@ -976,9 +1132,9 @@ class BulletWorld:
         arr_b = a[:, 0].astype(int)
         la = a[:, 1].astype(int)
         lb = a[:, 2].astype(int)
-        pa, pb, nb = a[:, 3:6], a[:, 6:9], a[:, 9:12]
-        dist, fn = a[:, 12], a[:, 13]
-        fric = a[:, 14:15] * a[:, 15:18] + a[:, 18:19] * a[:, 19:22]
+        pa, pb, nb = a[:, 3:6] / self._S, a[:, 6:9] / self._S, a[:, 9:12]
+        dist, fn = a[:, 12] / self._S, a[:, 13] / self._S
+        fric = (a[:, 14:15] * a[:, 15:18] + a[:, 18:19] * a[:, 19:22]) / self._S
         # PyBullet reports friction as the force on the contact manifold's body 0. Measured
         # rule (tests/sim/test_bullet.py): when exactly one of the two colliders is a compound
         # shape, the compound is body 0; otherwise the collider created first is (lower body
@@ -1005,7 +1161,7 @@ class BulletWorld:
         """Deepest penetration among body A's contact points after the last step, m (0 when
         none penetrates); cheaper than ``contacts(body_a).max_penetration_m()``."""
         pts = pybullet.getContactPoints(bodyA=body_a, physicsClientId=self.client_id)
-        return max(0.0, -min(c[8] for c in pts)) if pts else 0.0
+        return max(0.0, -min(c[8] for c in pts) / self._S) if pts else 0.0
 
     # ---------------------------------------------------------------- joints
     def disable_motors(self, body: int, joints: Sequence[int]) -> None:
@@ -1021,16 +1177,28 @@ class BulletWorld:
             physicsClientId=self.client_id,
         )
 
+    def _joint_scales(self, body: int, joints: Sequence[int]) -> tuple[list[float], list[float]]:
+        """Per joint, (position scale, force scale) from SI to Bullet units: S and S for a
+        prismatic joint (m, N), 1 and S^2 for a revolute one (rad, N m)."""
+        kinds = self._joint_kinds.get(body, ())
+        pos, force = [], []
+        for j in joints:
+            revolute = j < len(kinds) and kinds[j] == "revolute"
+            pos.append(1.0 if revolute else self._S)
+            force.append(self._S2 if revolute else self._S)
+        return pos, force
+
     def set_joint_forces(self, body: int, joints: Sequence[int], forces: Sequence[float]) -> None:
         """Apply joint forces (N, prismatic) or torques (N m, revolute) for the next step.
 
         The velocity motors must be disabled first (:meth:`disable_motors`).
         """
+        _, fs = self._joint_scales(body, joints)
         pybullet.setJointMotorControlArray(
             body,
             list(joints),
             pybullet.TORQUE_CONTROL,
-            forces=[float(f) for f in forces],
+            forces=[k * float(f) for k, f in zip(fs, forces, strict=True)],
             physicsClientId=self.client_id,
         )
 
@@ -1045,12 +1213,13 @@ class BulletWorld:
 
         A blocked joint (velocity below its target) is pushed with exactly ``max_forces``.
         """
+        ps, fs = self._joint_scales(body, joints)
         pybullet.setJointMotorControlArray(
             body,
             list(joints),
             pybullet.VELOCITY_CONTROL,
-            targetVelocities=[float(v) for v in velocities],
-            forces=[float(f) for f in max_forces],
+            targetVelocities=[k * float(v) for k, v in zip(ps, velocities, strict=True)],
+            forces=[k * float(f) for k, f in zip(fs, max_forces, strict=True)],
             physicsClientId=self.client_id,
         )
 
@@ -1065,13 +1234,14 @@ class BulletWorld:
     ) -> None:
         """Position-control joints toward ``targets`` with bounded motor force."""
         n = len(joints)
+        ps, fs = self._joint_scales(body, joints)
         pybullet.setJointMotorControlArray(
             body,
             list(joints),
             pybullet.POSITION_CONTROL,
-            targetPositions=[float(t) for t in targets],
+            targetPositions=[k * float(t) for k, t in zip(ps, targets, strict=True)],
             targetVelocities=[0.0] * n,
-            forces=[float(f) for f in max_forces],
+            forces=[k * float(f) for k, f in zip(fs, max_forces, strict=True)],
             positionGains=[position_gain] * n,
             velocityGains=[velocity_gain] * n,
             physicsClientId=self.client_id,
@@ -1079,25 +1249,29 @@ class BulletWorld:
 
     def reset_joints(self, body: int, joints: Sequence[int], positions: Sequence[float]) -> None:
         """Teleport joints to ``positions`` with zero velocity."""
-        for j, q in zip(joints, positions, strict=True):
-            pybullet.resetJointState(body, j, float(q), 0.0, physicsClientId=self.client_id)
+        ps, _ = self._joint_scales(body, joints)
+        for j, k, q in zip(joints, ps, positions, strict=True):
+            pybullet.resetJointState(body, j, k * float(q), 0.0, physicsClientId=self.client_id)
 
     def joint_positions(self, body: int, joints: Sequence[int]) -> np.ndarray:
         """Joint positions (m or rad), (len(joints),)."""
         st = pybullet.getJointStates(body, list(joints), physicsClientId=self.client_id)
-        return np.array([s[0] for s in st], dtype=float)
+        ps, _ = self._joint_scales(body, joints)
+        return np.array([s[0] for s in st], dtype=float) / np.array(ps)
 
     def joint_positions_velocities(self, body: int, joints: Sequence[int]
                                    ) -> tuple[np.ndarray, np.ndarray]:
         """Joint positions and velocities in one query, each (len(joints),)."""
         st = pybullet.getJointStates(body, list(joints), physicsClientId=self.client_id)
-        return (np.array([s[0] for s in st], dtype=float),
-                np.array([s[1] for s in st], dtype=float))
+        ps = np.array(self._joint_scales(body, joints)[0])
+        return (np.array([s[0] for s in st], dtype=float) / ps,
+                np.array([s[1] for s in st], dtype=float) / ps)
 
     def joint_velocities(self, body: int, joints: Sequence[int]) -> np.ndarray:
         """Joint velocities (m/s or rad/s), (len(joints),)."""
         st = pybullet.getJointStates(body, list(joints), physicsClientId=self.client_id)
-        return np.array([s[1] for s in st], dtype=float)
+        ps, _ = self._joint_scales(body, joints)
+        return np.array([s[1] for s in st], dtype=float) / np.array(ps)
 
     def apply_force(
         self, body: int, link: int, force_N: Sequence[float] | np.ndarray,
@@ -1107,8 +1281,8 @@ class BulletWorld:
         pybullet.applyExternalForce(
             body,
             link,
-            list(force_N),
-            list(position_m),
+            [self._S * float(f) for f in force_N],
+            [self._S * float(p) for p in position_m],
             pybullet.WORLD_FRAME,
             physicsClientId=self.client_id,
         )
@@ -1117,9 +1291,9 @@ class BulletWorld:
         """World position of a link's centre of mass, (3,) m."""
         cid = self.client_id
         if link == -1:
-            return np.asarray(pybullet.getBasePositionAndOrientation(body, physicsClientId=cid)[0])
+            return np.asarray(pybullet.getBasePositionAndOrientation(body, physicsClientId=cid)[0]) / self._S
         st = pybullet.getLinkState(body, link, computeForwardKinematics=1, physicsClientId=cid)
-        return np.asarray(st[0])
+        return np.asarray(st[0]) / self._S
 
     # ---------------------------------------------------------------- pose constraints
     def add_pose_constraint(
@@ -1133,7 +1307,9 @@ class BulletWorld:
         """
         T_inertial_link = invert(self._bodies[body].T_link_inertial)
         parent_pos, parent_quat = pose_to_pq(T_inertial_link)
+        parent_pos = [self._S * v for v in parent_pos]
         pos, quat = pose_to_pq(T_world_target)
+        pos = [self._S * v for v in pos]
         cons = pybullet.createConstraint(
             parentBodyUniqueId=body,
             parentLinkIndex=-1,
@@ -1151,7 +1327,7 @@ class BulletWorld:
             raise BulletError(f"createConstraint failed for body {self.body_name(body)!r}")
         pybullet.changeConstraint(
             cons,
-            maxForce=float(max_force_N),
+            maxForce=self._S2 * float(max_force_N),
             erp=float(self.fidelity.erp if erp is None else erp),
             physicsClientId=self.client_id,
         )
@@ -1167,9 +1343,9 @@ class BulletWorld:
         """Move the world target of a pose constraint."""
         pybullet.changeConstraint(
             constraint,
-            jointChildPivot=list(position_m),
+            jointChildPivot=[self._S * float(v) for v in position_m],
             jointChildFrameOrientation=list(quat_xyzw),
-            maxForce=float(max_force_N),
+            maxForce=self._S2 * float(max_force_N),
             physicsClientId=self.client_id,
         )
 

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -47,6 +47,7 @@ from ..planner.trajectory import (
 from .bullet import BulletWorld
 from .gripper import FINGER_LINKS, Gripper
 from .records import HELD_PHASES, StepOutcome, StepRecord, SuccessCriteria
+from .verdicts import Failure, SceneGuard, classify_insertion
 
 _SPEED_MARGIN_MPS = 0.1
 
@@ -140,6 +141,8 @@ def execute_step(
     mate_axis_world: ArrayLike | None = None,
     warnings: Sequence[str] = (),
     before_step: Callable[[int], None] | None = None,
+    insertion_length_m: float | None = None,
+    guard: SceneGuard | None = None,
 ) -> tuple[StepRecord, StepOutcome]:
     """Drive the gripper along ``trajectory`` and judge the step.
 
@@ -164,11 +167,19 @@ def execute_step(
     before_step : callable, optional
         ``before_step(i)`` is called before physics step ``i`` (forces applied there act
         during that step only), e.g. :class:`asmplan.sim.press.PressRecorder`.
+    insertion_length_m : float, optional
+        Engagement length of the insertion: a step short of its depth is classified as
+        ``rim_stop`` or ``jammed`` (:mod:`asmplan.sim.verdicts`).
+    guard : SceneGuard, optional
+        Speed and cell bounds (default :class:`~asmplan.sim.verdicts.SceneGuard`): a dynamic
+        body (other than the gripper) beyond them ends the step at that record row as
+        ``fell`` or ``unstable``; the record keeps the rows before it.
 
     Returns
     -------
     (StepRecord, StepOutcome)
     """
+    guard = SceneGuard() if guard is None else guard
     crit = SuccessCriteria() if criteria is None else criteria
     fid = world.fidelity
     dt = fid.dt_s
@@ -220,6 +231,11 @@ def execute_step(
     T_grip_part_ref: np.ndarray | None = None
     nan_detected = False
     mode_open: bool | None = None
+    watched = [b for b in world.dynamic_bodies() if b != gripper.body]
+    centre = np.asarray(guard.cell_centre_m, dtype=float)
+    g_norm = float(np.linalg.norm(world.gravity_mps2))
+    z_top = {b: float(world.com_position_m(b)[2]) for b in watched}
+    stop: Failure | None = None
     wall0 = time.perf_counter()
     r = 0
     for i in range(n_steps):
@@ -247,6 +263,39 @@ def execute_step(
             else:
                 pen_between = max(pen_between, world.max_penetration_m(part_body))
             continue
+        t_now = float(t_cmd[i])
+        v_palm = world.velocity(gripper.body)[0]
+        for b in watched:
+            vb = world.velocity(b)[0]
+            if b == part_body and mode_open is False:  # carried: its speed in the grip
+                vb = vb - v_palm
+            pb = world.com_position_m(b)
+            speed = float(np.linalg.norm(vb))
+            away = float(np.max(np.abs(pb - centre)))
+            if math.isfinite(pb[2]):
+                z_top[b] = max(z_top[b], float(pb[2]))
+            if not (speed <= guard.max_speed_mps and away <= guard.cell_half_size_m):
+                # gravity explains m g (highest - now) of kinetic energy (plus what the speed
+                # bound allows); more than that came from the solver
+                m_b = world.body_mass_kg(b)
+                ke = world.kinetic_energy_J(b)
+                budget = m_b * (g_norm * max(0.0, z_top[b] - float(pb[2]))
+                                + 0.5 * guard.max_speed_mps ** 2)
+                explained = math.isfinite(ke) and ke <= budget
+                code = "fell" if explained or away > guard.cell_half_size_m else "unstable"
+                limit = guard.max_speed_mps
+                stop = Failure(code, speed if math.isfinite(speed) else math.inf, limit,
+                               "m/s", body=world.body_name(b),
+                               position_m=tuple(float(c) for c in pb) if np.all(
+                                   np.isfinite(pb)) else None,
+                               detail=(f"{away * 1e3:.0f} mm from the cell centre (cell "
+                                       f"half size {guard.cell_half_size_m * 1e3:.0f} mm)"
+                                       if away > guard.cell_half_size_m else
+                                       f"kinetic energy {ke:.3g} J, its fall explains "
+                                       f"{budget:.3g} J, at t = {t_now:.3f} s"))
+                break
+        if stop is not None:
+            break
         T_part = world.pose(part_body)
         T_tcp = gripper.tcp_pose()
         travel = gripper.finger_travel_m()
@@ -292,7 +341,7 @@ def execute_step(
         if nan_detected:
             break
     wall = time.perf_counter() - wall0
-    if r < m:  # stopped early on NaN: keep the rows written so far
+    if r < m:  # stopped early (NaN, guard): keep the rows written so far
         rec = {name: a[:r] for name, a in rec.items()}
     record = StepRecord(phase_names=names, **rec)
     outcome = judge(
@@ -309,7 +358,53 @@ def execute_step(
         peak_insertion_force_between_N=peak_insert_between,
         max_penetration_between_m=pen_between,
     )
+    failures = _failures(record, outcome, crit, target, axis, insertion_length_m, stop)
+    if failures:
+        outcome = replace(outcome, success=False, failures=failures,
+                          reasons=tuple(f.message for f in failures) + outcome.reasons)
     return record, outcome
+
+
+RIM_DEPTH_M = 0.5e-3
+"""An insertion that entered less than this (or less than a tenth of its engagement) stopped
+on the rim: a tilted unchamfered pin's corner can drop a fraction of a millimetre into the
+gap on one side without being captured."""
+
+
+def _failures(record: StepRecord, outcome: StepOutcome, crit: SuccessCriteria,
+              target: np.ndarray | None, axis: np.ndarray | None,
+              insertion_length_m: float | None, stop: Failure | None) -> tuple[Failure, ...]:
+    """The typed causes of a failed step (:mod:`asmplan.sim.verdicts`)."""
+    out: list[Failure] = [] if stop is None else [stop]
+    if outcome.success and stop is None:
+        return ()
+    n = record.n_ticks
+    held = record.phase_mask("lift", "translate")
+    if n and held.any():
+        slip = float(np.max(record.slip_m[held]))
+        if slip > crit.max_slip_m:
+            out.append(Failure("slipped", slip, crit.max_slip_m, "m"))
+    lower = record.phase_mask("lower")
+    if (n and lower.any() and target is not None and axis is not None
+            and insertion_length_m is not None and insertion_length_m > 0):
+        ax = record.axial_error_m[lower]
+        # the part stopped while the gripper kept pushing: where it first slipped past the
+        # limit (whatever happened after, e.g. forced in by penetration); else, short of its
+        # depth at the end, where it got deepest
+        slipped = np.flatnonzero(record.slip_m[lower] > crit.max_slip_m)
+        if slipped.size:
+            j = int(slipped[0])
+        elif abs(outcome.final_axial_error_m) > crit.axial_tol_m:
+            j = int(np.nanargmin(ax))
+        else:
+            return tuple(out)
+        entered = float(insertion_length_m - ax[j])
+        T = record.T_world_part[lower][j]
+        tilt = rotation_angle_rad(target[:3, :3].T @ T[:3, :3])
+        out.append(classify_insertion(entered, insertion_length_m,
+                                      min(RIM_DEPTH_M, 0.1 * insertion_length_m), tilt,
+                                      float(record.lateral_error_m[lower][j])))
+    return tuple(out)
 
 
 def failed_outcome(reasons: Sequence[str], warnings: Sequence[str] = (), wall_time_s: float = 0.0,

@@ -103,7 +103,17 @@ class Fidelity:
         position-controlled gripper got the pads' full friction as extra seating force
         (peg_in_hole at BALANCED: 62 N against its 50 N limit). Parts never get anchors: on
         every body they also stick pins in their holes.
-    """
+    bullet_units_per_m : float
+        Bullet length units per metre (:mod:`asmplan.sim.bullet` converts at its boundary).
+        Bullet's collision code has absolute tolerances made for metre-sized bodies: GJK
+        treats support points within 1e-2 units as one (every vertex of a small hull within
+        1 cm of another, in metres), and primitive shapes keep a margin of 1e-3 units inside
+        them that rounds every edge and rim. BALANCED and ACCURATE simulate in millimetres
+        (1000): rims rounded by 1 um instead of 1 mm, GJK exact to 10 um of vertex spacing.
+        FAST keeps metres (1.0): its resolvable clearance is 0.4 mm, and at 1/240 s a body
+        steps 0.4 mm into a contact, which the 1 mm margin absorbs (in millimetres a FAST pin
+        entered a hole's wall by 2-3 mm).
+"""
 
     name: str
     dt_s: float
@@ -120,6 +130,7 @@ class Fidelity:
     min_resolvable_clearance_m: float
     dynamic_partners: bool = True
     friction_anchor: bool = False
+    bullet_units_per_m: float = 1000.0
 
     def __post_init__(self) -> None:
         def positive(label: str, value: float) -> None:
@@ -145,6 +156,7 @@ class Fidelity:
                 raise ValueError(f"Fidelity.{label}: expected a value in [0, 1], found {v}")
         nonneg("spinning_friction", self.spinning_friction)
         nonneg("collision_margin_m", self.collision_margin_m)
+        positive("bullet_units_per_m", self.bullet_units_per_m)
         if self.geometry_lod not in _LODS:
             raise ValueError(
                 f"Fidelity.geometry_lod: expected one of {list(_LODS)}, found "
@@ -180,6 +192,7 @@ FAST = Fidelity(
     min_resolvable_clearance_m=0.4e-3,
     dynamic_partners=False,
     friction_anchor=True,
+    bullet_units_per_m=1.0,
 )
 
 BALANCED = Fidelity(

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from .verdicts import Failure
+
 HELD_PHASES: tuple[str, ...] = ("hold", "lift", "translate", "lower")
 """Phases during which the part must stay in the fingers (slip and drop are checked)."""
 
@@ -209,6 +211,9 @@ class StepOutcome:
     energy_growth : bool
         The part moved faster than the gripper motion and free fall can explain.
     wall_time_s : float
+    failures : tuple of Failure
+        Typed causes (:mod:`asmplan.sim.verdicts`): rim_stop, jammed, slipped, fell,
+        unstable, each with its value and limit.
         Wall-clock time of the simulation loop, s (not part of the physics result).
     """
 
@@ -228,6 +233,7 @@ class StepOutcome:
     nan_detected: bool
     energy_growth: bool
     wall_time_s: float = 0.0
+    failures: tuple[Failure, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict (NaN becomes None)."""
@@ -237,6 +243,6 @@ class StepOutcome:
             if isinstance(v, float) and not math.isfinite(v):
                 v = None
             elif isinstance(v, tuple):
-                v = list(v)
+                v = [x.to_dict() if isinstance(x, Failure) else x for x in v]
             out[f.name] = v
         return out

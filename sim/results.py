@@ -18,6 +18,7 @@ from .records import StepOutcome, StepRecord, SuccessCriteria
 from .scene import (
     SceneSettings,
 )
+from .verdicts import Failure
 
 if TYPE_CHECKING:
     pass
@@ -91,6 +92,9 @@ def _outcome_from_dict(d: dict[str, Any]) -> StepOutcome:
     for f in fields(StepOutcome):
         if f.name == "wall_time_s":
             continue
+        if f.name == "failures":
+            kw[f.name] = tuple(Failure.from_dict(x) for x in d.get("failures") or ())
+            continue
         v = d[f.name]
         if f.name in ("reasons", "warnings"):
             v = tuple(v)
@@ -143,6 +147,7 @@ class StepResult:
     wall_time_s: float = 0.0
     timing_s: dict[str, float] = field(default_factory=dict)
     press: dict[str, Any] | None = None
+    pose_error: dict[str, list[float]] | None = None
 
     @property
     def simulated(self) -> bool:
@@ -173,6 +178,7 @@ class StepResult:
             "criteria": self.criteria,
             "record": None if self.record is None else self.record.to_dict(),
             "scene": self.scene, "warnings": list(self.warnings), "press": self.press,
+            **({} if self.pose_error is None else {"pose_error": self.pose_error}),
         })
 
     @classmethod
@@ -185,7 +191,8 @@ class StepResult:
                    outcome=None if d["outcome"] is None else _outcome_from_dict(d["outcome"]),
                    record=None if d["record"] is None else StepRecord.from_dict(d["record"]),
                    scene=d["scene"], warnings=tuple(d["warnings"]), criteria=crit,
-                   press=d.get("press"))
+                   press=d.get("press"),
+                   pose_error=d.get("pose_error"))
 
 
 @dataclass(frozen=True, eq=False)

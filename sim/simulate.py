@@ -51,6 +51,7 @@ from .bullet import BulletWorld
 from .execute import execute_step, failed_outcome, scene_warnings
 from .fidelity import BALANCED, PRESETS, Fidelity
 from .gripper import CoupledGripper
+from .pose_error import PoseError, apply_pose_error
 from .press import press_clearance_m, press_recorder, press_relaxed
 from .records import SuccessCriteria
 from .results import (
@@ -67,6 +68,7 @@ from .scene import (
     gripper_spec,
     step_scene,
 )
+from .verdicts import SceneGuard
 
 if TYPE_CHECKING:
     from ..parts.models import ProductGeometry
@@ -137,17 +139,21 @@ ProgressFn = Callable[[int, int, str, str], None]
 def simulate_step(plan: Plan, index: int, product: Product, geometry: ProductGeometry,
                   fidelity: Fidelity = BALANCED, *, cull: bool = True,
                   settings: SceneSettings | None = None,
-                  criteria: SuccessCriteria | None = None) -> StepResult:
-    """Simulate step ``index`` of ``plan`` in a fresh world (see the module docstring)."""
+                  criteria: SuccessCriteria | None = None,
+                  pose_error: PoseError | None = None) -> StepResult:
+    """Simulate step ``index`` of ``plan`` in a fresh world (see the module docstring).
+    ``pose_error``: the robot's error at the insertion (:mod:`asmplan.sim.pose_error`)."""
     check_plan_product(plan, product)
     return simulate_placed_step(plan.steps[index], assembly_state(plan, index), product, geometry,
-                                fidelity, cull=cull, settings=settings, criteria=criteria)
+                                fidelity, cull=cull, settings=settings, criteria=criteria,
+                                pose_error=pose_error)
 
 
 def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geometry: ProductGeometry,
                          fidelity: Fidelity = BALANCED, *, cull: bool = True,
                          settings: SceneSettings | None = None,
-                         criteria: SuccessCriteria | None = None) -> StepResult:
+                         criteria: SuccessCriteria | None = None,
+                         pose_error: PoseError | None = None) -> StepResult:
     """:func:`simulate_step` for one ``step`` given where every part is (``state``:
     poses and the parts in place, :func:`asmplan.planner.plan.assembly_state`)."""
     index = step.index
@@ -162,6 +168,10 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
     scene = step_scene(step, state, product, geometry, fidelity, settings, cull=cull)
     warns = step_warnings(scene, product, step, geometry, fidelity)
     traj = step.trajectory
+    applied: dict[str, list[float]] | None = None
+    if pose_error is not None and pose_error != PoseError() and step.insertion_direction is not None:
+        traj = apply_pose_error(traj, step.insertion_direction, pose_error)
+        applied = pose_error.to_dict()
     f_max = float(np.max(traj.clamp_force_N))
     g_res = product.gripper_for(step.part)
     if f_max > g_res.max_force_N:
@@ -178,17 +188,22 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
         press = press_recorder(world, ids[step.part], step, gripper.body,
                                product.process.insertion_speed_m_s,
                                every=fidelity.record_every_steps)
+        table = product.resources.table.size_m
+        guard = SceneGuard(cell_half_size_m=max(1.0, float(np.max(table))))
         record, outcome = execute_step(world, gripper, ids[step.part], traj, crit,
                                        T_world_part_target=step.T_world_final,
                                        mate_axis_world=step.insertion_direction,
                                        warnings=warns,
-                                       before_step=None if press is None else press.before_step)
+                                       before_step=None if press is None else press.before_step,
+                                       insertion_length_m=step.insertion_length_m or None,
+                                       guard=guard)
     t3 = time.perf_counter()
     table = criteria_table(outcome, crit, step.insertion_direction is not None)
     return StepResult(index, step.part, step.kind, outcome, record, scene.summary(), warns,
                       table, wall_time_s=t3 - t0,
                       timing_s={"select": t1 - t0, "build": t2 - t1, "simulate": t3 - t2},
-                      press=None if press is None else press.summary())
+                      press=None if press is None else press.summary(),
+                      pose_error=applied)
 
 
 @dataclass(frozen=True, eq=False)
@@ -203,16 +218,18 @@ class _Job:
     settings: SceneSettings
     criteria: SuccessCriteria | None
     plan: Plan | None = None
+    pose_error: PoseError | None = None
 
     def step(self, index: int) -> StepResult:
         assert self.plan is not None, "a job without a plan simulates given steps only"
         return simulate_step(self.plan, index, self.product, self.geometry, self.fidelity,
-                             cull=self.cull, settings=self.settings, criteria=self.criteria)
+                             cull=self.cull, settings=self.settings, criteria=self.criteria,
+                             pose_error=self.pose_error)
 
     def placed_step(self, step: Step, state: AssemblyState) -> StepResult:
         return simulate_placed_step(step, state, self.product, self.geometry, self.fidelity,
                                     cull=self.cull, settings=self.settings,
-                                    criteria=self.criteria)
+                                    criteria=self.criteria, pose_error=self.pose_error)
 
 
 _JOB: _Job | None = None
@@ -353,7 +370,8 @@ def simulate_plan(plan: Plan, product: Product, geometry: ProductGeometry,
                   criteria: SuccessCriteria | None = None,
                   steps: Sequence[int] | None = None,
                   progress: ProgressFn | None = None,
-                  workers: int | None = 1) -> PlanResults:
+                  workers: int | None = 1,
+                  pose_error: PoseError | None = None) -> PlanResults:
     """Simulate every step of ``plan`` (or the ``steps`` given) and judge each.
 
     Parameters
@@ -382,6 +400,9 @@ def simulate_plan(plan: Plan, product: Product, geometry: ProductGeometry,
         None: one per step when there are at most twice as many steps as
         :func:`default_workers` (they share the cores and end together), else one per core.
         Pass 1 inside a process pool of your own.
+    pose_error : PoseError, optional
+        A robot pose error applied at every insertion (the part displaced across the mate
+        axis and tilted, :mod:`asmplan.sim.pose_error`); each step's result records it.
 
     Returns
     -------
@@ -395,7 +416,7 @@ def simulate_plan(plan: Plan, product: Product, geometry: ProductGeometry,
             raise IndexError(f"step {k}: expected 0..{len(plan.steps) - 1}")
     n_workers = resolve_workers(workers, sum(plan.steps[k].trajectory is not None for k in todo))
     if n_workers > 1:
-        job = _Job(product, geometry, fidelity, cull, s, criteria, plan)
+        job = _Job(product, geometry, fidelity, cull, s, criteria, plan, pose_error)
         results = _simulate_parallel(job, todo, n_workers, progress)
     else:
         results = []
@@ -403,7 +424,8 @@ def simulate_plan(plan: Plan, product: Product, geometry: ProductGeometry,
             if progress is not None:
                 progress(n, len(todo), plan.steps[k].part, "start")
             results.append(simulate_step(plan, k, product, geometry, fidelity, cull=cull,
-                                         settings=s, criteria=criteria))
+                                         settings=s, criteria=criteria,
+                                         pose_error=pose_error))
             if progress is not None:
                 progress(n, len(todo), plan.steps[k].part, "done")
     return PlanResults(product=product.name, source=plan.source,
@@ -430,12 +452,14 @@ class PipelinedSimulation:
 
     def __init__(self, product: Product, geometry: ProductGeometry, fidelity: Fidelity, *, workers: int,
                  cull: bool = True, settings: SceneSettings | None = None,
-                 criteria: SuccessCriteria | None = None) -> None:
+                 criteria: SuccessCriteria | None = None,
+                 pose_error: PoseError | None = None) -> None:
         if int(workers) < 2:
             raise ValueError(f"workers: expected >= 2 (else simulate after planning), "
                              f"found {workers}")
         self.product = product
-        self._job = _Job(product, geometry, fidelity, cull, settings or SceneSettings(), criteria)
+        self._job = _Job(product, geometry, fidelity, cull, settings or SceneSettings(), criteria,
+                         pose_error=pose_error)
         self.workers = int(workers)
         self._pool: ProcessPoolExecutor | None = None
         self._futures: dict[tuple[tuple[str, ...], int], Any] = {}

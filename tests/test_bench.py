@@ -36,7 +36,12 @@ def test_every_bound_has_a_reason_and_covers_every_preset() -> None:
 def test_fast_figures_are_within_their_bounds(fast_accuracy) -> None:
     figs = {(f.scenario, f.figure): f for f in fast_accuracy.figures}
     assert b.check_bounds(fast_accuracy.figures) == []
-    assert all(f.asserted for f in fast_accuracy.figures)  # 0.2 mm is above FAST's resolution
+    pin = ("insertion_outcome_mismatch", "insertion_depth_error_m", "fit_penetration_m")
+    # 0.2 mm is above FAST's resolution; issue 16's feature scenes are reported, not asserted,
+    # at FAST (metres: rims rounded by 1 mm), its held drift is asserted
+    assert all(f.asserted for f in fast_accuracy.figures if f.figure in (*pin, "held_drift_m"))
+    assert not any(f.asserted for f in fast_accuracy.figures
+                   if f.figure in ("jam_depth_error_m", "rim_capture_mismatch"))
     # analytic expectations, independent of the bounds table
     assert figs[("seed clamp cycle (4 s)", "seed_force_mae_N")].value <= b.PAPER_MAE_N
     slip = next(f for f in fast_accuracy.figures if f.figure == "slip_threshold_error")

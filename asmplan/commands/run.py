@@ -14,7 +14,7 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .argtypes import add_jobs_argument
+from .argtypes import add_jobs_argument, add_pose_error_argument
 from .plan import evidence_lines
 from .textout import StageProgress, format_table
 
@@ -42,6 +42,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-cull", action="store_true",
                    help="load the whole product into every step's scene (slower; for comparison)")
     add_jobs_argument(p)
+    add_pose_error_argument(p)
     p.set_defaults(func=run)
 
 
@@ -72,11 +73,13 @@ def run(args: argparse.Namespace) -> int:
     from ..knowledge.loader import load_product
     from ..pipeline import RunSettings, run_product, write_outputs
     from ..planner.plan import PlannerSettings
+    from ..sim.pose_error import PoseError
 
     path = Path(args.product) if args.product else bundled_example()
     product = load_product(path, display_name=args.product or "pinhole_station.yaml (bundled)")
+    pose_error = None if args.pose_error is None else PoseError.from_cli(*args.pose_error)
     settings = RunSettings(fidelity=args.fidelity, planner=PlannerSettings(seed=args.seed),
-                           cull=not args.no_cull, workers=args.jobs)
+                           cull=not args.no_cull, workers=args.jobs, pose_error=pose_error)
     progress = StageProgress(sys.stderr)
     with OutputFolder(args.out) as folder:  # checked and locked before any work
         result = run_product(product, settings, progress=progress)

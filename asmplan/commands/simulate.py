@@ -22,7 +22,7 @@ from ..fileio import atomic_write_json, check_output_file
 from ..knowledge.errors import InputIssue, ProductError
 from ..knowledge.loader import load_product
 from ..planner.plan import Plan
-from .argtypes import add_jobs_argument
+from .argtypes import add_jobs_argument, add_pose_error_argument
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -46,6 +46,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-cull", action="store_true",
                    help="keep every part in every step's scene (slower; for comparison)")
     add_jobs_argument(p)
+    add_pose_error_argument(p)
     p.set_defaults(func=run)
 
 
@@ -104,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
                   file=sys.stderr)
     from ..parts.models import ProductGeometry
     from ..sim.fidelity import preset
+    from ..sim.pose_error import PoseError
     from ..sim.scene import PlanProductMismatchError
     from ..sim.simulate import clearance_warnings, simulate_plan
 
@@ -118,8 +120,11 @@ def run(args: argparse.Namespace) -> int:
             print(f"simulated step {k + 1}/{n}: {part}", file=sys.stderr, flush=True)
 
     try:
+        pose_error = (None if args.pose_error is None
+                      else PoseError.from_cli(*args.pose_error))
         results = simulate_plan(plan, product, ProductGeometry(product), fidelity=fidelity,
-                                cull=not args.no_cull, progress=progress, workers=args.jobs)
+                                cull=not args.no_cull, progress=progress, workers=args.jobs,
+                                pose_error=pose_error)
     except PlanProductMismatchError as exc:
         raise _plan_issue(args.plan, f"the plan does not match its product file {src}: "
                                      f"{exc}") from None

@@ -12,6 +12,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from ..pose_error import PoseError
+
 try:  # POSIX advisory locks keep two sweeps from appending to one journal
     import fcntl
 except ImportError:  # pragma: no cover - Windows
@@ -98,32 +100,6 @@ class SweepSpec:
         d = dict(data)
         d["vary"] = tuple(d.get("vary", FACTORS))
         return cls(**d)
-
-
-@dataclass(frozen=True)
-class PoseError:
-    """Robot positioning error of one step, in the step's insertion frame.
-
-    The insertion frame's z axis is the insertion direction; x and y span the plane across it.
-
-    Attributes
-    ----------
-    lateral_m : (2,) tuple of float
-        Offset of the part along x and y, m.
-    tilt_rad : (2,) tuple of float
-        Small rotations about x and y, rad.
-    """
-
-    lateral_m: tuple[float, float] = (0.0, 0.0)
-    tilt_rad: tuple[float, float] = (0.0, 0.0)
-
-    @property
-    def lateral_norm_m(self) -> float:
-        return math.hypot(*self.lateral_m)
-
-    @property
-    def tilt_norm_rad(self) -> float:
-        return math.hypot(*self.tilt_rad)
 
 
 @dataclass(frozen=True)

@@ -167,7 +167,10 @@ def test_a_1_m_bar_is_picked_and_placed():
         T0 = pose((0.0, 0.0, size[2] / 2))
         gripper = Gripper(world, GripperSpec(max_clamp_force_N=500.0), T0, opening_m=size[1] + 0.004)
         force = 2 * mass * G / (2 * 0.6)
-        _, outcome = _pick_and_hold(world, gripper, body, T0, force, 0.02, 0.5)
+        # set down exactly where it rested: the table takes part of the 42 N weight before the
+        # release (measured 27.7 N with exact box edges at BALANCED); that is not an insertion
+        crit = SuccessCriteria(max_insertion_force_N=mass * G)
+        _, outcome = _pick_and_hold(world, gripper, body, T0, force, 0.02, 0.5, criteria=crit)
     assert outcome.success, outcome.reasons
     assert outcome.max_slip_m < 0.2e-3
     assert outcome.clamp_force_mae_N < 0.01 * force

@@ -35,8 +35,10 @@ def test_interference_fit_is_reported_as_a_failed_insertion():
     record, outcome = pin_insertion(BALANCED, -0.05e-3)  # pin 0.1 mm larger in diameter
     assert not outcome.success
     assert any("insertion depth not reached" in r for r in outcome.reasons), outcome.reasons
-    assert outcome.final_axial_error_m > 15e-3
-    assert entered_depth_m(record) < 2e-3  # blocked at the entrance, not pushed through
+    # blocked at the entrance (20 mm short at the end of "lower"), not pushed through; with
+    # sharp rims (millimetre units) the unseated pin may topple when the fingers retreat
+    assert outcome.final_position_error_m > 15e-3
+    assert entered_depth_m(record) < 2e-3
     # the gripper kept pushing: the pin slipped in the fingers instead of entering
     assert outcome.max_slip_m > 10e-3
     assert any("slip" in r for r in outcome.reasons)

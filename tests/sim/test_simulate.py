@@ -159,8 +159,11 @@ def test_insertion_off_the_hole_axis_fails_on_depth_and_position():
     result = simulate_step(bad, step.index, product, geo, BALANCED)
     assert not result.success
     assert {"insertion_depth", "position"} <= set(result.failed_criteria)
-    depth = result.criteria["insertion_depth"]["value"]
-    assert depth > 15e-3  # stopped on the block's top face, ~20 mm short of the floor
+    # stopped on the block's top face, 20 mm short of the floor: a rim stop (with sharp edges
+    # the standing peg may topple once released, so the final depth error can be smaller)
+    assert result.criteria["insertion_depth"]["value"] > 5e-3
+    codes = [f.code for f in result.outcome.failures]
+    assert "rim_stop" in codes and "unstable" not in codes, result.reasons
     assert any("insertion depth not reached" in r for r in result.reasons)
 
 
