@@ -348,7 +348,7 @@ def jam_depth_m(fidelity: Fidelity, clearance_m: float, tilt_rad: float,
             speed = float(np.linalg.norm(v))
             if speed > s.max_speed_mps:  # a robot feeding slowly near contact
                 v = v * (s.max_speed_mps / speed)
-            world.set_velocity(peg, v, (0.0, 0.0, 0.0))  # the wrist holds the tilt
+            world.set_velocity(peg, v.tolist(), (0.0, 0.0, 0.0))  # the wrist holds the tilt
         T = world.pose(peg)
     u = T[:3, 2]
     bottom = T[:3, 3] - (L / 2.0) * u

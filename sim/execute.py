@@ -47,7 +47,7 @@ from ..planner.trajectory import (
 from .bullet import BulletWorld
 from .gripper import FINGER_LINKS, Gripper
 from .records import HELD_PHASES, StepOutcome, StepRecord, SuccessCriteria
-from .verdicts import Failure, SceneGuard, classify_insertion
+from .verdicts import Failure, FailureCode, SceneGuard, classify_insertion
 
 _SPEED_MARGIN_MPS = 0.1
 
@@ -282,12 +282,13 @@ def execute_step(
                 budget = m_b * (g_norm * max(0.0, z_top[b] - float(pb[2]))
                                 + 0.5 * guard.max_speed_mps ** 2)
                 explained = math.isfinite(ke) and ke <= budget
-                code = "fell" if explained or away > guard.cell_half_size_m else "unstable"
+                code: FailureCode = ("fell" if explained or away > guard.cell_half_size_m
+                                     else "unstable")
                 limit = guard.max_speed_mps
                 stop = Failure(code, speed if math.isfinite(speed) else math.inf, limit,
                                "m/s", body=world.body_name(b),
-                               position_m=tuple(float(c) for c in pb) if np.all(
-                                   np.isfinite(pb)) else None,
+                               position_m=(float(pb[0]), float(pb[1]), float(pb[2]))
+                               if np.all(np.isfinite(pb)) else None,
                                detail=(f"{away * 1e3:.0f} mm from the cell centre (cell "
                                        f"half size {guard.cell_half_size_m * 1e3:.0f} mm)"
                                        if away > guard.cell_half_size_m else
@@ -400,7 +401,7 @@ def _failures(record: StepRecord, outcome: StepOutcome, crit: SuccessCriteria,
             return tuple(out)
         entered = float(insertion_length_m - ax[j])
         T = record.T_world_part[lower][j]
-        tilt = rotation_angle_rad(target[:3, :3].T @ T[:3, :3])
+        tilt = float(rotation_angle_rad(target[:3, :3].T @ T[:3, :3]))
         out.append(classify_insertion(entered, insertion_length_m,
                                       min(RIM_DEPTH_M, 0.1 * insertion_length_m), tilt,
                                       float(record.lateral_error_m[lower][j])))

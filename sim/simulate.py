@@ -170,7 +170,7 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
     traj = step.trajectory
     applied: dict[str, list[float]] | None = None
     if pose_error is not None and pose_error != PoseError() and step.insertion_direction is not None:
-        traj = apply_pose_error(traj, step.insertion_direction, pose_error)
+        traj = apply_pose_error(traj, [float(v) for v in step.insertion_direction], pose_error)
         applied = pose_error.to_dict()
     f_max = float(np.max(traj.clamp_force_N))
     g_res = product.gripper_for(step.part)
@@ -188,8 +188,8 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
         press = press_recorder(world, ids[step.part], step, gripper.body,
                                product.process.insertion_speed_m_s,
                                every=fidelity.record_every_steps)
-        table = product.resources.table.size_m
-        guard = SceneGuard(cell_half_size_m=max(1.0, float(np.max(table))))
+        table_size = product.resources.table.size_m
+        guard = SceneGuard(cell_half_size_m=max(1.0, float(np.max(table_size))))
         record, outcome = execute_step(world, gripper, ids[step.part], traj, crit,
                                        T_world_part_target=step.T_world_final,
                                        mate_axis_world=step.insertion_direction,

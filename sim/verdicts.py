@@ -71,7 +71,8 @@ class Failure:
         pos = d.get("position_m")
         return cls(code=d["code"], value=_nan(d.get("value")), limit=_nan(d.get("limit")),
                    unit=d.get("unit", ""), body=d.get("body", ""),
-                   position_m=None if pos is None else tuple(float(c) for c in pos),
+                   position_m=None if pos is None else (float(pos[0]), float(pos[1]),
+                                                        float(pos[2])),
                    detail=d.get("detail", ""))
 
 
