@@ -365,7 +365,8 @@ def predicted_seed_profile(mass_kg: float = SEED_PART_MASS_KG, mu: float = SEED_
     min-jerk), per phase ``(min, max)`` in N: 0.16 kg at mu 0.5 holds with 1.57 N."""
     import numpy as np
 
-    from .planner.trajectory import parse_phase_table, seed_cycle
+    from asmplan.planner.trajectory import parse_phase_table, seed_cycle
+
     from .scenarios import SEED_PHASE_TABLE_CSV, pose
 
     traj = seed_cycle(parse_phase_table(SEED_PHASE_TABLE_CSV), pose((0.0, 0.0, 0.025)),
@@ -387,7 +388,8 @@ def seed_profile_figures(preset_name: str) -> list[AccuracyFigure]:
     paper's Table 4 (hold, lift, translate, lower; clamp and release are ramps the planner
     commands, not predicts): the largest difference of the phase's min and max, N. Reported,
     not asserted (the paper's motion profile is not published; ours is min-jerk)."""
-    from .planner.trajectory import parse_phase_table
+    from asmplan.planner.trajectory import parse_phase_table
+
     from .scenarios import SEED_PHASE_TABLE_CSV
 
     t0 = time.perf_counter()
