@@ -20,7 +20,9 @@ from .knowledge.errors import ProductError
 
 # subcommand name -> module in asmplan.commands defining `register(subparsers)`; the parser
 # each registers carries `func(args) -> int` as its default.
-COMMANDS = ("run", "validate", "graph", "check", "sequence", "plan", "simulate", "sweep", "bench")
+COMMANDS = ("run", "validate", "graph", "check", "sequence", "plan", "simulate", "sweep", "bench", "import")
+# subcommands whose module is not named like them ("import" is a Python keyword)
+_MODULES = {"import": "cad_import"}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -33,7 +35,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in COMMANDS:
-        importlib.import_module(f"asmplan.commands.{name}").register(sub)
+        importlib.import_module(f"asmplan.commands.{_MODULES.get(name, name)}").register(sub)
     return parser
 
 

@@ -1,0 +1,588 @@
+"""Turn a CAD assembly (a STEP file, or a folder of per-part meshes in assembled pose) into a
+product: parts with their placements and recognised features, proposed mates with fits, and
+the product YAML that the rest of asmplan reads, commented with the evidence.
+
+Steps
+-----
+1. **Read.** STEP through :mod:`asmplan.parts.step_brep` (exact surfaces, names, placements,
+   units, shared definitions); meshes through :func:`asmplan.parts.meshfile.load_mesh_file`
+   and :func:`asmplan.parts.cad_features.fit_mesh_surfaces`. Identical mesh parts (same volume,
+   area and principal moments within 1e-6) are reported as one definition.
+2. **Features** per part definition: :func:`asmplan.parts.cad_features.recognise`.
+3. **Mates** between every male and female feature of two parts: parallel axes, coaxial lines,
+   overlapping extent. Line to line (diameters equal within the input's accuracy) -> the default
+   fit of :mod:`asmplan.knowledge.fit_rules`; a drawn clearance up to ``max_clearance_ratio``
+   of the diameter -> a clearance mate as drawn; a male larger than the female at an ISO
+   metric thread's tap-drill or minor diameter -> a thread (a screw fastening: recognised,
+   declared, not simulated); another larger male -> an interference as drawn; a pin in a slot
+   -> a non-round mate (not simulated). A through female's mouth is on the side the male comes
+   from: the side it can be withdrawn to without its part colliding (a bolt's head), else the
+   side the male reaches further out on.
+4. **Write** the product YAML: parts that are screwed (bolts, nuts) are listed as fastenings in
+   comments, not as parts; the largest part is the fixtured base.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..knowledge.fit_rules import FitRule, builtin_rules, default_fit
+from .cad_features import CadFeature, RecognitionTolerance, fit_mesh_surfaces, line_distance, recognise
+
+MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".off")
+STEP_SUFFIXES = (".step", ".stp")
+
+# ISO 261/724 metric coarse threads: nominal -> (tap drill, minor diameter of the nut), mm
+ISO_METRIC = {1.6: (1.25, 1.221), 2: (1.6, 1.567), 2.5: (2.05, 2.013), 3: (2.5, 2.459), 4: (3.3, 3.242),
+              5: (4.2, 4.134), 6: (5.0, 4.917), 8: (6.8, 6.647), 10: (8.5, 8.376), 12: (10.2, 10.106),
+              14: (12.0, 11.835), 16: (14.0, 13.835), 20: (17.5, 17.294), 24: (21.0, 20.752)}
+
+
+class CadImportError(ValueError):
+    """An assembly that cannot be imported; ``path`` and ``reason`` say which and why."""
+
+    def __init__(self, path: Path | str, reason: str):
+        self.path = Path(path)
+        self.reason = reason
+        super().__init__(f"{self.path}: {reason}")
+
+
+@dataclass(frozen=True)
+class ImportSettings:
+    """Settings of :func:`import_assembly`.
+
+    Parameters
+    ----------
+    deflection_m : chordal deflection of the STEP tessellation written for each part.
+    max_clearance_ratio : a drawn diametral clearance up to this fraction of the male diameter
+        makes a mate; a larger gap is a pass-through (noted, no mate).
+    mesh_units_m : metres per unit of mesh files (STEP carries its own unit).
+    fit_rules : default fits for line-to-line pairs (None: the built-in knowledge).
+    """
+
+    deflection_m: float = 2e-6
+    max_clearance_ratio: float = 0.35
+    mesh_units_m: float = 1e-3
+    fit_rules: tuple[FitRule, ...] | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class ImportedPart:
+    """One part instance: its definition, placement (4, 4, metres) and features (part frame)."""
+
+    name: str
+    definition: str
+    T_assembly_part: np.ndarray
+    features: tuple[CadFeature, ...]
+    vertices_m: np.ndarray
+    faces: np.ndarray
+    volume_m3: float
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, eq=False)
+class ProposedMate:
+    """A male feature of one part in a female feature of another, in the assembly frame.
+
+    ``kind``: fit (line to line, ``fit`` from the rules), clearance (as drawn), thread,
+    interference (as drawn), non_round. ``mouth_m`` and ``axis`` (outward normal of the female's
+    mouth) are in the assembly frame; ``engaged_m`` is the overlap along the axis.
+    """
+
+    male_part: str
+    male: CadFeature
+    female_part: str
+    female: CadFeature
+    kind: str
+    mouth_m: np.ndarray
+    axis: np.ndarray
+    engaged_m: float
+    fit: FitRule | None = None
+    evidence: tuple[str, ...] = ()
+
+    @property
+    def simulated(self) -> bool:
+        return self.kind in ("fit", "clearance", "interference")
+
+
+@dataclass(frozen=True, eq=False)
+class ImportResult:
+    source: Path
+    name: str
+    file_unit: str
+    parts: tuple[ImportedPart, ...]
+    mates: tuple[ProposedMate, ...]
+    fasteners: tuple[str, ...]
+    base: str
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    def part(self, name: str) -> ImportedPart:
+        return next(p for p in self.parts if p.name == name)
+
+
+def _clean(name: str) -> str:
+    s = re.sub(r"[^A-Za-z0-9_-]+", "_", name).strip("_")
+    return s or "part"
+
+
+def _apply(T: np.ndarray, p: np.ndarray) -> np.ndarray:
+    return T[:3, :3] @ p + T[:3, 3]
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading
+# ---------------------------------------------------------------------------------------------
+def _read_step(path: Path, settings: ImportSettings) -> tuple[str, str, list[ImportedPart], list[str]]:
+    from .step_brep import StepReadError, read_step_assembly
+
+    try:
+        asm = read_step_assembly(path, settings.deflection_m)
+    except StepReadError as exc:
+        raise CadImportError(path, exc.reason) from None
+    feats: dict[str, tuple[list[CadFeature], list[str]]] = {}
+    for key, d in asm.definitions.items():
+        feats[key] = recognise(list(d.surfaces), d.vertices_m, d.faces, RecognitionTolerance())
+    parts = []
+    shared: dict[str, list[str]] = {}
+    for inst in asm.instances:
+        d = asm.definitions[inst.definition]
+        f, notes = feats[inst.definition]
+        shared.setdefault(inst.definition, []).append(inst.name)
+        parts.append(ImportedPart(_clean(inst.name), inst.definition, inst.T_assembly_part, tuple(f),
+                                  d.vertices_m, d.faces, d.volume_m3, tuple(notes)))
+    notes = list(asm.notes)
+    for key, names in shared.items():
+        if len(names) > 1:
+            notes.append(f'{len(names)} instances of one part definition "{key}": {", ".join(names)}')
+    return asm.root_name, asm.file_unit, parts, notes
+
+
+def _read_mesh_folder(folder: Path, settings: ImportSettings) -> tuple[str, str, list[ImportedPart], list[str]]:
+    from .meshfile import MeshFileError, load_mesh_file
+
+    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in MESH_SUFFIXES)
+    if not files:
+        raise CadImportError(folder, f"expected mesh files ({', '.join(MESH_SUFFIXES)}) in the folder, "
+                             "found none")
+    parts, notes, errors = [], [], []
+    signatures: list[tuple[np.ndarray, str]] = []
+    for f in files:
+        try:
+            loaded = load_mesh_file(f, scale=settings.mesh_units_m)
+        except MeshFileError as exc:
+            errors.append(str(exc))
+            continue
+        mesh = loaded.mesh
+        V = np.asarray(mesh.vertices, float)
+        F = np.asarray(mesh.faces, np.int64)
+        surfaces = fit_mesh_surfaces(V, F)
+        feats, fnotes = recognise(surfaces, V, F, RecognitionTolerance.for_mesh())
+        sig = np.concatenate([[mesh.volume, mesh.area], np.sort(mesh.principal_inertia_components)])
+        definition = _clean(f.stem)
+        for other_sig, other_def in signatures:
+            if np.allclose(sig, other_sig, rtol=1e-6, atol=0):
+                definition = other_def
+                break
+        else:
+            signatures.append((sig, definition))
+        parts.append(ImportedPart(_clean(f.stem), definition, np.eye(4), tuple(feats), V, F,
+                                  float(mesh.volume), tuple(fnotes) + loaded.notes))
+    if errors:
+        raise CadImportError(folder, "; ".join(errors))
+    by_def: dict[str, list[str]] = {}
+    for p in parts:
+        by_def.setdefault(p.definition, []).append(p.name)
+    for key, names in by_def.items():
+        if len(names) > 1:
+            notes.append(f'{len(names)} parts of one shape (definition "{key}"): {", ".join(names)}')
+    unit = {1e-3: "mm", 1.0: "m", 1e-2: "cm", 0.0254: "in"}.get(settings.mesh_units_m, f"{settings.mesh_units_m} m")
+    return folder.name.removesuffix("_meshes"), unit, parts, notes
+
+
+# ---------------------------------------------------------------------------------------------
+# Mates
+# ---------------------------------------------------------------------------------------------
+def _thread_nominal(d_male_mm: float, d_female_mm: float) -> float | None:
+    for nominal, (tap, minor) in ISO_METRIC.items():
+        if abs(d_male_mm - nominal) <= 0.05 and (abs(d_female_mm - tap) <= 0.15 or abs(d_female_mm - minor) <= 0.15):
+            return nominal
+    return None
+
+
+def _solid(part: ImportedPart, T: np.ndarray):
+    import trimesh
+
+    from .geometry import trimesh_to_manifold
+
+    m = trimesh.Trimesh(_apply_all(T, part.vertices_m), part.faces, process=False)
+    m.merge_vertices()
+    return trimesh_to_manifold(m)
+
+
+def _apply_all(T: np.ndarray, V: np.ndarray) -> np.ndarray:
+    return V @ T[:3, :3].T + T[:3, 3]
+
+
+def _blocked(male: ImportedPart, female: ImportedPart, direction: np.ndarray, distance: float) -> bool:
+    """Does ``male`` collide with ``female`` when withdrawn along ``direction``?"""
+    try:
+        fsolid = _solid(female, female.T_assembly_part)
+    except ValueError:
+        return False
+    limit = 1e-3 * male.volume_m3
+    for s in (0.25, 0.5, 0.75, 1.0):
+        T = male.T_assembly_part.copy()
+        T[:3, 3] += direction * distance * s
+        try:
+            vol = (_solid(male, T) ^ fsolid).volume()
+        except ValueError:
+            return False
+        if vol > limit:
+            return True
+    return False
+
+
+def propose_mates(parts: list[ImportedPart], settings: ImportSettings, mesh: bool
+                  ) -> tuple[list[ProposedMate], list[str]]:
+    """Every coaxial male/female pair of two parts with overlapping extent (module docstring)."""
+    ang = math.radians(0.2) if mesh else 1e-6
+    dist = 5e-5 if mesh else 1e-6
+    notes: list[str] = []
+    world: list[tuple[ImportedPart, CadFeature, np.ndarray, np.ndarray]] = []
+    for p in parts:
+        for f in p.features:
+            world.append((p, f, _apply(p.T_assembly_part, f.point_m), p.T_assembly_part[:3, :3] @ f.axis))
+    mates: list[ProposedMate] = []
+    for pm, fm, pm_pt, am in world:
+        if fm.female or fm.kind in ("hex",):
+            continue
+        for pf, ff, pf_pt, af in world:
+            if pf is pm or not ff.female or ff.kind in ("hex", "non_round"):
+                continue
+            if abs(float(np.dot(am, af))) < math.cos(ang):
+                continue
+            if ff.kind == "slot":
+                if fm.diameter_m > ff.diameter_m + dist:
+                    continue
+                off = pm_pt - pf_pt
+                off = off - af * float(np.dot(off, af))
+                if float(np.linalg.norm(off)) > ff.slot_length_m / 2:
+                    continue
+            elif line_distance(pf_pt, af, pm_pt) > dist:
+                continue
+            # extents along the female's axis
+            f_lo, f_hi = ff.t0_m, ff.t1_m
+            base = float(np.dot(pm_pt - pf_pt, af))
+            sgn = 1.0 if float(np.dot(am, af)) > 0 else -1.0
+            m_lo, m_hi = sorted((base + sgn * fm.t0_m, base + sgn * fm.t1_m))
+            engaged = min(f_hi, m_hi) - max(f_lo, m_lo)
+            if engaged <= max(dist, 1e-5):
+                continue
+            dm, df = fm.diameter_m, ff.diameter_m
+            ev = [f"{pm.name}.{fm.name} ({fm.kind} {dm * 1e3:.6g} mm) and {pf.name}.{ff.name} "
+                  f"({ff.kind} {df * 1e3:.6g} mm) coaxial within {dist * 1e3:g} mm, "
+                  f"overlap {engaged * 1e3:.4g} mm"]
+            line = max(1e-6, 2e-3 * dm) if mesh else 1e-6
+            fit = None
+            if ff.kind == "slot":
+                kind = "non_round"
+                ev.append("pin in a slot: located in one direction only, not simulated")
+            elif abs(df - dm) <= line:
+                kind = "fit"
+                fit = default_fit(fm.kind, ff.kind, dm, settings.fit_rules)
+                ev.append(f"line to line: fit {fit.fit if fit else '?'} from the rules ({fit.why if fit else ''})")
+            elif dm < df:
+                if df - dm > settings.max_clearance_ratio * dm:
+                    notes.append(f"{pm.name}.{fm.name} passes through {pf.name}.{ff.name} with "
+                                 f"{(df - dm) * 1e3:.4g} mm clearance: no mate")
+                    continue
+                kind = "clearance"
+                ev.append(f"clearance {(df - dm) * 1e3:.4g} mm as drawn")
+            else:
+                nominal = _thread_nominal(dm * 1e3, df * 1e3)
+                if nominal is not None:
+                    kind = "thread"
+                    ev.append(f"M{nominal:g} thread: female at the tap-drill/minor diameter of M{nominal:g}")
+                else:
+                    kind = "interference"
+                    ev.append(f"interference {(dm - df) * 1e3:.4g} mm as drawn (not an ISO thread)")
+            # the mouth: for a blind female its own; for a through one, the side the male enters
+            axis = af.copy()
+            mouth = pf_pt + af * (f_hi + (ff.counterbore[1] if ff.counterbore else 0.0))
+            if ff.through and kind != "non_round":
+                pick_up = (m_hi - f_hi) >= (f_lo - m_lo)
+                if kind != "thread":
+                    up_blocked = _blocked(pm, pf, af, engaged + 2e-3)
+                    down_blocked = _blocked(pm, pf, -af, engaged + 2e-3)
+                    if up_blocked != down_blocked:
+                        pick_up = not up_blocked
+                        ev.append(f"{pm.name} can be withdrawn only one way along the axis (the other "
+                                  "way its part collides)")
+                if not pick_up:
+                    axis = -af
+                    mouth = pf_pt + af * f_lo
+            mates.append(ProposedMate(pm.name, fm, pf.name, ff, kind, mouth, axis, engaged, fit, tuple(ev)))
+    mates.sort(key=lambda m: (m.female_part, m.female.name, m.male_part, m.male.name))
+    return mates, notes
+
+
+def import_assembly(path: Path | str, settings: ImportSettings | None = None) -> ImportResult:
+    """Read a STEP assembly or a folder of meshes and propose the product (module docstring).
+
+    Raises
+    ------
+    CadImportError
+        The input is missing, of an unknown kind, or cannot be read.
+    """
+    settings = settings or ImportSettings()
+    path = Path(path)
+    if path.is_dir():
+        name, unit, parts, notes = _read_mesh_folder(path, settings)
+        mesh = True
+    elif path.is_file() and path.suffix.lower() in STEP_SUFFIXES:
+        name, unit, parts, notes = _read_step(path, settings)
+        mesh = False
+    elif path.is_file():
+        raise CadImportError(path, f"expected a STEP file (.step, .stp) or a folder of meshes, found "
+                             f'"{path.suffix}"')
+    else:
+        raise CadImportError(path, "not found: expected a STEP file or a folder of per-part meshes")
+    mates, mnotes = propose_mates(parts, settings, mesh)
+    fasteners = sorted({m.male_part for m in mates if m.kind == "thread"}
+                       | {m.female_part for m in mates if m.kind == "thread"
+                          and _is_nut(parts, m.female_part)})
+    base = max(parts, key=lambda p: p.volume_m3).name
+    return ImportResult(path, _clean(name), unit, tuple(parts), tuple(mates), tuple(fasteners), base,
+                        tuple(notes + mnotes))
+
+
+def _is_nut(parts: list[ImportedPart], name: str) -> bool:
+    p = next(p for p in parts if p.name == name)
+    return any(f.kind == "hex" and not f.female for f in p.features) and \
+        not any(not f.female and f.kind != "hex" for f in p.features)
+
+
+# ---------------------------------------------------------------------------------------------
+# Writing the product
+# ---------------------------------------------------------------------------------------------
+def _mm(v: float) -> str:
+    return f"{round(v * 1e3, 6):.6f}".rstrip("0").rstrip(".").replace("-0", "-0") or "0"
+
+
+def _vec_mm(v) -> str:
+    return "[" + ", ".join(_fmt(x * 1e3) for x in v) + "]"
+
+
+def _fmt(x: float) -> str:
+    x = round(float(x), 6) + 0.0
+    return f"{x:.6f}".rstrip("0").rstrip(".") if x != int(x) else str(int(x))
+
+
+def _vec(v) -> str:
+    return "[" + ", ".join(_fmt(round(float(x), 9)) for x in v) + "]"
+
+
+def _rpy_deg(R: np.ndarray) -> np.ndarray:
+    """Fixed-axis X-Y-Z angles (R = Rz Ry Rx) in degrees."""
+    pitch = math.asin(-max(-1.0, min(1.0, R[2, 0])))
+    if abs(math.cos(pitch)) > 1e-9:
+        roll = math.atan2(R[2, 1], R[2, 2])
+        yaw = math.atan2(R[1, 0], R[0, 0])
+    else:
+        roll = math.atan2(-R[1, 2], R[1, 1])
+        yaw = 0.0
+    return np.degrees([roll, pitch, yaw])
+
+
+def _write_stl(path: Path, V_m: np.ndarray, F: np.ndarray) -> None:
+    import trimesh
+
+    m = trimesh.Trimesh(V_m * 1e3, F, process=False)
+    m.merge_vertices()
+    tmp = path.with_suffix(".stl.tmp")
+    m.export(tmp, file_type="stl")
+    tmp.replace(path)
+
+
+def _material(part: ImportedPart) -> str:
+    males = [f for f in part.features if not f.female and f.kind in ("pin", "shaft", "thread")]
+    return "steel" if males or any(f.kind == "hex" for f in part.features) else "aluminium"
+
+
+def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
+    """The product file text for ``result``; part meshes are named ``<mesh_dir_rel>/<def>.stl``."""
+    simulated_parts = [p for p in result.parts if p.name not in result.fasteners]
+    names = {p.name for p in simulated_parts}
+    mates = [m for m in result.mates if m.male_part in names and m.female_part in names]
+    L: list[str] = []
+    w = L.append
+    w(f"# Imported by `asmplan import` from {result.source.name} (file unit: {result.file_unit}).")
+    w("# Review before use: every recognised feature and proposed mate carries its evidence;")
+    w("# fits of line-to-line pairs come from the default fit rules (knowledge/data/default_fits.yaml);")
+    w("# materials are guessed from the shape (steel for pins, shafts and fasteners).")
+    for n in result.notes:
+        w(f"# note: {n}")
+    w("asmplan: 1")
+    w(f"product: {result.name}")
+    w(f"description: Imported from {result.source.name}")
+    w("units: {length: mm, mass: kg, angle: deg}")
+    zmin = min(float(_apply_all(p.T_assembly_part, p.vertices_m)[:, 2].min()) for p in simulated_parts)
+    w(f"placement: {{xyz: [0, 0, {_fmt(-zmin * 1e3)}]}}   # the lowest point of the assembly on the table top")
+    w("")
+    w("parts:")
+    male_feats: dict[tuple[str, int], str] = {}
+    female_used: dict[tuple[str, str], ProposedMate] = {}
+    per_part_males: dict[str, list[tuple[int, ProposedMate]]] = {}
+    for i, m in enumerate(mates):
+        if m.simulated:
+            per_part_males.setdefault(m.male_part, []).append((i, m))
+            female_used[(m.female_part, m.female.name)] = m
+    for p in simulated_parts:
+        w(f"  - name: {p.name}")
+        w(f"    material: {_material(p)}")
+        w(f"    geometry: {{type: mesh, file: {mesh_dir_rel}/{p.definition}.stl, units: mm}}"
+          f"   # definition {p.definition}")
+        T = p.T_assembly_part
+        w(f"    pose: {{xyz: {_vec_mm(T[:3, 3])}, rpy: {_vec(_rpy_deg(T[:3, :3]))}}}")
+        if p.name == result.base:
+            w("    fixtured: true   # the largest part: the base, held by a fixture")
+        Tinv = np.linalg.inv(T)
+        lines: list[str] = []
+        comments: list[str] = []
+        for f in p.features:
+            ev = "; ".join(f.evidence)
+            if f.female and f.kind in ("hole", "bore"):
+                used = female_used.get((p.name, f.name))
+                axis, mouth = f.axis, f.mouth_m
+                if used is not None and f.through:
+                    axis = Tinv[:3, :3] @ used.axis
+                    mouth = _apply(Tinv, used.mouth_m)
+                depth = "through: true" if f.through else f"depth: {_mm(f.depth_m)}"
+                cham = f", chamfer: {_mm(f.chamfer_m)}" if f.chamfer_m else ""
+                cb = (f"  # counterbore {_mm(f.counterbore[0])} x {_mm(f.counterbore[1])} mm at the mouth"
+                      if f.counterbore else "")
+                lines.append(f"      # {ev}")
+                lines.append(f"      - {{name: {f.name}, type: {f.kind}, at: {_vec_mm(mouth)}, axis: {_vec(axis)}, "
+                             f"diameter: {_mm(f.diameter_m)}, {depth}{cham}}}{cb}")
+            elif f.female:
+                comments.append(f"      # {f.name}: {f.kind} ({ev})")
+            elif f.kind == "hex":
+                comments.append(f"      # {f.name}: hex {_mm(f.across_flats_m)} mm across flats ({ev})")
+            elif f.kind == "thread":
+                comments.append(f"      # {f.name}: external thread {_mm(f.diameter_m)} mm ({ev})")
+        for k, (_i, m) in enumerate(per_part_males.get(p.name, []), 1):
+            f = m.male
+            name = f"{f.name}_{k}" if len(per_part_males[p.name]) > 1 else f.name
+            male_feats[(p.name, _i)] = name
+            at = _apply(Tinv, m.mouth_m)
+            axis = Tinv[:3, :3] @ (-m.axis)
+            # the tip is the male's end inside the female
+            tip_t1 = float(np.dot(T[:3, :3] @ f.axis, -m.axis)) > 0
+            ch = f.chamfer_t1_m if tip_t1 else f.chamfer_t0_m
+            cham = f", chamfer: {_mm(ch)}" if ch else ""
+            lines.append(f"      # {'; '.join(f.evidence)}; seated in {m.female_part}.{m.female.name}")
+            lines.append(f"      - {{name: {name}, type: {f.kind}, at: {_vec_mm(at)}, axis: {_vec(axis)}, "
+                         f"diameter: {_mm(f.diameter_m)}, length: {_mm(m.engaged_m)}{cham}}}")
+        if lines:
+            w("    features:")
+            L.extend(lines)
+        L.extend(comments)
+        for n in p.notes:
+            w(f"    # note: {n}")
+    w("")
+    w("mates:")
+    for i, m in enumerate(mates):
+        ev = "; ".join(m.evidence)
+        if not m.simulated:
+            w(f"  # not simulated ({m.kind}): {m.male_part}.{m.male.name} in {m.female_part}.{m.female.name}: {ev}")
+            continue
+        w(f"  # {ev}")
+        ref = f"{m.male_part}.{male_feats[(m.male_part, i)]}"
+        key = ""
+        if m.kind == "fit" and m.fit is not None:
+            key = f", fit: {m.fit.fit}"
+        elif m.kind == "interference":
+            key = f", interference: {_mm(m.male.diameter_m - m.female.diameter_m)}"
+        w(f"  - {{name: m{i + 1}_{m.male_part}_in_{m.female_part}, pin: {ref}, "
+          f"hole: {m.female_part}.{m.female.name}{key}}}")
+    if result.fasteners:
+        w("")
+        w("# Fastenings (recognised, declared, not simulated): screwing needs a nutrunner, not a")
+        w("# two-finger gripper. Each fastener and what it is screwed into:")
+        for name in result.fasteners:
+            p = result.part(name)
+            T = p.T_assembly_part
+            into = [m for m in result.mates if m.kind == "thread" and name in (m.male_part, m.female_part)]
+            what = ", ".join(f"{m.male_part}.{m.male.name} into {m.female_part}.{m.female.name}" for m in into)
+            axis = _vec(-into[0].axis) if into else "?"
+            w(f"#   {name} (definition {p.definition}) at {_vec_mm(T[:3, 3])} mm, screwed along {axis}: {what}")
+            for m in result.mates:
+                if name in (m.male_part, m.female_part) and m.kind != "thread":
+                    w(f"#     also {m.male_part}.{m.male.name} in {m.female_part}.{m.female.name} ({m.kind})")
+    w("")
+    w("precedence:")
+    w(f"  base: {result.base}")
+    w("")
+    w("resources:   # a default cell; every length in mm")
+    w("  gripper: {type: parallel, stroke: 100, finger: {size: [20, 8, 30], friction: 1.0}, max_force: 60, "
+      "mass: 0.6}")
+    w("  table: {size: [800, 600, 40], friction: 0.5}")
+    w(f"  fixtures: [{{name: vise, holds: {result.base}, kind: vise}}]")
+    return "\n".join(L) + "\n"
+
+
+def write_product(result: ImportResult, out: Path | str, *, force: bool = False) -> list[Path]:
+    """Write ``out`` (the product YAML) and ``<out stem>_parts/<definition>.stl`` (mm).
+
+    Refuses to overwrite a file asmplan did not write (one without the import header) unless
+    ``force``. Returns the files written.
+    """
+    out = Path(out)
+    if out.exists() and not force:
+        head = out.read_text(errors="replace")[:200]
+        if not head.startswith("# Imported by `asmplan import`"):
+            raise CadImportError(out, "exists and was not written by asmplan import: choose another "
+                                 "name or pass --force")
+    mesh_dir = out.parent / f"{out.stem}_parts"
+    mesh_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    done = set()
+    for p in result.parts:
+        if p.name in result.fasteners or p.definition in done:
+            continue
+        done.add(p.definition)
+        target = mesh_dir / f"{p.definition}.stl"
+        _write_stl(target, p.vertices_m, p.faces)
+        written.append(target)
+    text = product_yaml(result, mesh_dir.name)
+    tmp = out.with_suffix(out.suffix + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(out)
+    written.append(out)
+    return written
+
+
+def summary_lines(result: ImportResult) -> list[str]:
+    """A short human summary of an import."""
+    kinds: dict[str, int] = {}
+    for p in result.parts:
+        for f in p.features:
+            kinds[f.kind] = kinds.get(f.kind, 0) + 1
+    mk: dict[str, int] = {}
+    for m in result.mates:
+        mk[m.kind] = mk.get(m.kind, 0) + 1
+    defs = len({p.definition for p in result.parts})
+    return [f"{len(result.parts)} parts ({defs} definitions), unit {result.file_unit}",
+            "features: " + ", ".join(f"{v} {k}" for k, v in sorted(kinds.items())),
+            "mates: " + ", ".join(f"{v} {k}" for k, v in sorted(mk.items())),
+            f"fasteners (not simulated): {', '.join(result.fasteners) or 'none'}",
+            f"base: {result.base}"]
+
+
+__all__ = ["CadImportError", "ISO_METRIC", "ImportResult", "ImportSettings", "ImportedPart", "ProposedMate",
+           "import_assembly", "product_yaml", "propose_mates", "summary_lines", "write_product"]
