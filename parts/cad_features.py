@@ -90,9 +90,9 @@ class CadFeature:
     """A recognised feature in the part frame (metres).
 
     ``point_m`` and ``axis`` define the axis line; the feature spans ``t0_m``..``t1_m`` along it
-    (chamfers included, a counterbore not). For a female feature, ``axis`` is the outward normal of its mouth and
-    ``mouth_m`` the mouth centre (``t1_m`` end, counterbore included); ``depth_m`` is 0 for a
-    through hole. ``kind``: hole, bore, pin, shaft, thread, hex, slot, non_round.
+    (chamfers included, a counterbore not). For a female feature, ``axis`` is the outward
+    normal of its mouth and ``mouth_m`` the mouth centre (``t1_m`` end, counterbore included);
+    ``depth_m`` is 0 for a through hole. ``kind``: hole, bore, pin, shaft, thread, hex, slot, non_round.
     """
 
     name: str
@@ -223,6 +223,35 @@ def fit_mesh_surfaces(vertices_m: np.ndarray, faces: np.ndarray, *, smooth_angle
     g = coo_matrix((np.ones(int(keep.sum())), (adj[keep, 0], adj[keep, 1])), shape=(n, n))
     _, labels = connected_components(g, directed=False)
     out: list[Surface] = []
+    # a flat face that continues a curve tangentially (a slot's wall between its two half
+    # cylinders) joins the curve's region: split such regions at their large coplanar facets
+    facet_of = np.full(n, -1)
+    for k, fc in enumerate(mesh.facets):
+        facet_of[fc] = k
+    facet_area = mesh.facets_area
+    labels = labels.copy()
+    next_label = int(labels.max()) + 1 if n else 0
+    for lab in np.unique(labels):
+        idx = np.flatnonzero(labels == lab)
+        ks = np.unique(facet_of[idx])
+        ks = ks[ks >= 0]
+        if len(ks) < 3:
+            continue
+        areas_k = facet_area[ks]
+        big = ks[areas_k > 4.0 * np.median(areas_k)]
+        if len(big) == 0 or len(big) == len(ks):
+            continue
+        flat = np.isin(facet_of[idx], big)
+        rest = idx[~flat]
+        sub = np.isin(adj[:, 0], rest) & np.isin(adj[:, 1], rest) & keep
+        gs = coo_matrix((np.ones(int(sub.sum())), (adj[sub, 0], adj[sub, 1])), shape=(n, n))
+        _, sub_labels = connected_components(gs, directed=False)
+        for comp in np.unique(sub_labels[rest]):
+            labels[rest[sub_labels[rest] == comp]] = next_label
+            next_label += 1
+        for k in big:
+            labels[idx[facet_of[idx] == k]] = next_label
+            next_label += 1
     order = np.argsort(labels, kind="stable")
     splits = np.flatnonzero(np.diff(labels[order])) + 1
     for idx in np.split(order, splits):
@@ -244,6 +273,11 @@ def fit_mesh_surfaces(vertices_m: np.ndarray, faces: np.ndarray, *, smooth_angle
         a0 = evecs[:, 0]
         cosines = N @ a0
         face_c = mesh.triangles_center[idx]
+        if np.max(np.abs(cosines)) >= 0.2:
+            # a cone's axis is the eigenvector whose eigenvalue stands apart from the other two
+            gaps = [min(abs(evals[i] - evals[j]) for j in range(3) if j != i) for i in range(3)]
+            a0 = evecs[:, int(np.argmax(gaps))]
+            cosines = N @ a0
         if np.max(np.abs(cosines)) < 0.2:
             p, a, r, rms = _fit_cylinder(V, a0)
             if rms > 1e-3 * r + 1e-7:
@@ -385,7 +419,8 @@ def _hexagons(planes: list[Surface], p: np.ndarray, a: np.ndarray, tol: Recognit
             if all(float(np.dot(nn, m)) < 0.999 for m in dirs):
                 dirs.append(nn)
         if len(dirs) == 6:
-            angles = sorted(float(np.degrees(np.arccos(np.clip(np.dot(dirs[0], m), -1, 1)))) for m in dirs[1:])
+            angles = sorted(float(np.degrees(np.arccos(np.clip(np.dot(dirs[0], m), -1, 1))))
+                            for m in dirs[1:])
             if np.allclose(angles, [60, 60, 120, 120, 180], atol=0.5):
                 found.append((2 * d, outer))
                 used.update(group)
@@ -439,9 +474,10 @@ def recognise(surfaces: list[Surface], vertices_m: np.ndarray, faces: np.ndarray
         st.sort(key=lambda c: c.t0)
         ends = []
         for i, c in enumerate(st):
-            def state(t_end: float, side: int, c=c, i=i) -> tuple[str, float]:
+            def state(t_end: float, side: int, c=c, i=i, st=st) -> tuple[str, float]:
                 j = i + side
-                if 0 <= j < len(st) and abs((st[j].t0 if side > 0 else st[j].t1) - t_end) <= _touch(tol):
+                if 0 <= j < len(st) and \
+                        abs((st[j].t0 if side > 0 else st[j].t1) - t_end) <= _touch(tol):
                     return ("larger" if st[j].radius > c.radius else "smaller"), 0.0
                 ch = _chamfer_at(c, t_end, side, cones, tol)
                 if rays is None:
@@ -459,7 +495,8 @@ def recognise(surfaces: list[Surface], vertices_m: np.ndarray, faces: np.ndarray
             (lo_state, lo_ch), (hi_state, hi_ch) = ends[i]
             opens = {"open", "larger"}
             if lo_state in opens and hi_state in opens:
-                through, mouth_side = True, +1
+                # a through hole's mouth: the chamfered end (the entry), else the +axis end
+                through, mouth_side = True, (-1 if lo_ch > hi_ch else +1)
             elif hi_state in opens:
                 through, mouth_side = False, +1
             elif lo_state in opens:
@@ -550,7 +587,8 @@ def recognise(surfaces: list[Surface], vertices_m: np.ndarray, faces: np.ndarray
                                            slot_length_m=sep + 2 * c.radius,
                                            evidence=(f"two half cylinders r {c.radius * 1e3:.4g} mm "
                                                      f"{sep * 1e3:.4g} mm apart: a slot "
-                                                     f"{2 * c.radius * 1e3:.4g} x {(sep + 2 * c.radius) * 1e3:.4g}"
+                                                     f"{2 * c.radius * 1e3:.4g} x "
+                                                     f"{(sep + 2 * c.radius) * 1e3:.4g}"
                                                      " mm, not round, not simulated",)))
                 break
         else:

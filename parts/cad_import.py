@@ -26,12 +26,12 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from ..knowledge.fit_rules import FitRule, builtin_rules, default_fit
+from ..knowledge.fit_rules import FitRule, default_fit
 from .cad_features import CadFeature, RecognitionTolerance, fit_mesh_surfaces, line_distance, recognise
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".off")
@@ -138,8 +138,11 @@ def _apply(T: np.ndarray, p: np.ndarray) -> np.ndarray:
 # Reading
 # ---------------------------------------------------------------------------------------------
 def _read_step(path: Path, settings: ImportSettings) -> tuple[str, str, list[ImportedPart], list[str]]:
-    from .step_brep import StepReadError, read_step_assembly
-
+    try:
+        from .step_brep import StepReadError, read_step_assembly
+    except ImportError:
+        raise CadImportError(path, "importing STEP assemblies needs OpenCASCADE: pip install "
+                             "'asmplan[cad]' (cadquery-ocp-novtk)") from None
     try:
         asm = read_step_assembly(path, settings.deflection_m)
     except StepReadError as exc:
@@ -162,7 +165,8 @@ def _read_step(path: Path, settings: ImportSettings) -> tuple[str, str, list[Imp
     return asm.root_name, asm.file_unit, parts, notes
 
 
-def _read_mesh_folder(folder: Path, settings: ImportSettings) -> tuple[str, str, list[ImportedPart], list[str]]:
+def _read_mesh_folder(folder: Path, settings: ImportSettings
+                      ) -> tuple[str, str, list[ImportedPart], list[str]]:
     from .meshfile import MeshFileError, load_mesh_file
 
     files = sorted(p for p in folder.iterdir() if p.suffix.lower() in MESH_SUFFIXES)
@@ -200,7 +204,8 @@ def _read_mesh_folder(folder: Path, settings: ImportSettings) -> tuple[str, str,
     for key, names in by_def.items():
         if len(names) > 1:
             notes.append(f'{len(names)} parts of one shape (definition "{key}"): {", ".join(names)}')
-    unit = {1e-3: "mm", 1.0: "m", 1e-2: "cm", 0.0254: "in"}.get(settings.mesh_units_m, f"{settings.mesh_units_m} m")
+    unit = {1e-3: "mm", 1.0: "m", 1e-2: "cm", 0.0254: "in"}.get(settings.mesh_units_m,
+                                                                 f"{settings.mesh_units_m} m")
     return folder.name.removesuffix("_meshes"), unit, parts, notes
 
 
@@ -209,7 +214,8 @@ def _read_mesh_folder(folder: Path, settings: ImportSettings) -> tuple[str, str,
 # ---------------------------------------------------------------------------------------------
 def _thread_nominal(d_male_mm: float, d_female_mm: float) -> float | None:
     for nominal, (tap, minor) in ISO_METRIC.items():
-        if abs(d_male_mm - nominal) <= 0.05 and (abs(d_female_mm - tap) <= 0.15 or abs(d_female_mm - minor) <= 0.15):
+        if abs(d_male_mm - nominal) <= 0.05 and \
+                (abs(d_female_mm - tap) <= 0.15 or abs(d_female_mm - minor) <= 0.15):
             return nominal
     return None
 
@@ -295,7 +301,8 @@ def propose_mates(parts: list[ImportedPart], settings: ImportSettings, mesh: boo
             elif abs(df - dm) <= line:
                 kind = "fit"
                 fit = default_fit(fm.kind, ff.kind, dm, settings.fit_rules)
-                ev.append(f"line to line: fit {fit.fit if fit else '?'} from the rules ({fit.why if fit else ''})")
+                ev.append(f"line to line: fit {fit.fit if fit else '?'} from the rules "
+                          f"({fit.why if fit else 'no rule matches'})")
             elif dm < df:
                 if df - dm > settings.max_clearance_ratio * dm:
                     notes.append(f"{pm.name}.{fm.name} passes through {pf.name}.{ff.name} with "
@@ -353,6 +360,13 @@ def import_assembly(path: Path | str, settings: ImportSettings | None = None) ->
     else:
         raise CadImportError(path, "not found: expected a STEP file or a folder of per-part meshes")
     mates, mnotes = propose_mates(parts, settings, mesh)
+    # a female feature a thread is screwed into is a thread (a tapped hole, a nut)
+    threaded = {(m.female_part, m.female.name) for m in mates if m.kind == "thread"}
+    if threaded:
+        parts = [replace(p, features=tuple(replace(f, kind="thread") if (p.name, f.name) in threaded else f
+                                           for f in p.features)) for p in parts]
+        mates = [replace(m, female=replace(m.female, kind="thread")) if m.kind == "thread" else m
+                 for m in mates]
     fasteners = sorted({m.male_part for m in mates if m.kind == "thread"}
                        | {m.female_part for m in mates if m.kind == "thread"
                           and _is_nut(parts, m.female_part)})
@@ -432,7 +446,7 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     w(f"description: Imported from {result.source.name}")
     w("units: {length: mm, mass: kg, angle: deg}")
     zmin = min(float(_apply_all(p.T_assembly_part, p.vertices_m)[:, 2].min()) for p in simulated_parts)
-    w(f"placement: {{xyz: [0, 0, {_fmt(-zmin * 1e3)}]}}   # the lowest point of the assembly on the table top")
+    w(f"placement: {{xyz: [0, 0, {_fmt(-zmin * 1e3)}]}}   # the assembly's lowest point on the table")
     w("")
     w("parts:")
     male_feats: dict[tuple[str, int], str] = {}
@@ -467,7 +481,8 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
                 cb = (f"  # counterbore {_mm(f.counterbore[0])} x {_mm(f.counterbore[1])} mm at the mouth"
                       if f.counterbore else "")
                 lines.append(f"      # {ev}")
-                lines.append(f"      - {{name: {f.name}, type: {f.kind}, at: {_vec_mm(mouth)}, axis: {_vec(axis)}, "
+                lines.append(f"      - {{name: {f.name}, type: {f.kind}, at: {_vec_mm(mouth)}, "
+                             f"axis: {_vec(axis)}, "
                              f"diameter: {_mm(f.diameter_m)}, {depth}{cham}}}{cb}")
             elif f.female:
                 comments.append(f"      # {f.name}: {f.kind} ({ev})")
@@ -499,7 +514,8 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     for i, m in enumerate(mates):
         ev = "; ".join(m.evidence)
         if not m.simulated:
-            w(f"  # not simulated ({m.kind}): {m.male_part}.{m.male.name} in {m.female_part}.{m.female.name}: {ev}")
+            w(f"  # not simulated ({m.kind}): {m.male_part}.{m.male.name} in "
+              f"{m.female_part}.{m.female.name}: {ev}")
             continue
         w(f"  # {ev}")
         ref = f"{m.male_part}.{male_feats[(m.male_part, i)]}"
@@ -518,9 +534,11 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
             p = result.part(name)
             T = p.T_assembly_part
             into = [m for m in result.mates if m.kind == "thread" and name in (m.male_part, m.female_part)]
-            what = ", ".join(f"{m.male_part}.{m.male.name} into {m.female_part}.{m.female.name}" for m in into)
+            what = ", ".join(f"{m.male_part}.{m.male.name} into {m.female_part}.{m.female.name}"
+                             for m in into)
             axis = _vec(-into[0].axis) if into else "?"
-            w(f"#   {name} (definition {p.definition}) at {_vec_mm(T[:3, 3])} mm, screwed along {axis}: {what}")
+            w(f"#   {name} (definition {p.definition}) at {_vec_mm(T[:3, 3])} mm, screwed along "
+              f"{axis}: {what}")
             for m in result.mates:
                 if name in (m.male_part, m.female_part) and m.kind != "thread":
                     w(f"#     also {m.male_part}.{m.male.name} in {m.female_part}.{m.female.name} ({m.kind})")
@@ -584,5 +602,16 @@ def summary_lines(result: ImportResult) -> list[str]:
             f"base: {result.base}"]
 
 
-__all__ = ["CadImportError", "ISO_METRIC", "ImportResult", "ImportSettings", "ImportedPart", "ProposedMate",
-           "import_assembly", "product_yaml", "propose_mates", "summary_lines", "write_product"]
+__all__ = [
+    "ISO_METRIC",
+    "CadImportError",
+    "ImportResult",
+    "ImportSettings",
+    "ImportedPart",
+    "ProposedMate",
+    "import_assembly",
+    "product_yaml",
+    "propose_mates",
+    "summary_lines",
+    "write_product",
+]

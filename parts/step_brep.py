@@ -242,14 +242,13 @@ def read_step_assembly(path: Path | str, deflection_m: float = 1e-6) -> StepAsse
     StepReadError
         The file does not translate, or holds no solid.
     """
+    from OCP.collections import Sequence_TDF_Label as label_sequence
     from OCP.IFSelect import IFSelect_RetDone
     from OCP.STEPCAFControl import STEPCAFControl_Reader
     from OCP.TCollection import TCollection_ExtendedString
     from OCP.TDF import TDF_Label
     from OCP.TDocStd import TDocStd_Document
     from OCP.XCAFDoc import XCAFDoc_DocumentTool, XCAFDoc_ShapeTool
-
-    from OCP.collections import Sequence_TDF_Label as label_sequence
 
     path = Path(path)
     mm = 1e-3  # OpenCASCADE's session unit

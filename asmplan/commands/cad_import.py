@@ -36,7 +36,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..parts.cad_import import CadImportError, ImportSettings, import_assembly, summary_lines, write_product
+    from ..parts.cad_import import (
+        CadImportError,
+        ImportSettings,
+        import_assembly,
+        summary_lines,
+        write_product,
+    )
 
     settings = ImportSettings(mesh_units_m=LENGTH_UNITS[args.mesh_units],
                               max_clearance_ratio=args.max_clearance_ratio)
@@ -49,5 +55,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"{args.assembly}: imported \"{result.name}\"")
     for line in summary_lines(result):
         print(f"  {line}")
-    print(f"wrote {written[-1]} and {len(written) - 1} part meshes in {written[-1].parent / (Path(args.output).stem + '_parts')}")
+    mesh_dir = written[-1].parent / (Path(args.output).stem + "_parts")
+    print(f"wrote {written[-1]} and {len(written) - 1} part meshes in {mesh_dir}")
     return 0
