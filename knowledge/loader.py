@@ -120,7 +120,9 @@ GEOMETRY = Tagged("type", {
     "sphere": Map({"diameter": Field(SIZE, required=True)}),
     "composite": Map({"children": Field(ListOf(CHILD, min_len=1), required=True), **CUTS}),
     "mesh": Map({"file": Field(Str(expected="a mesh file path (STL, OBJ, PLY or STEP)"), required=True),
-                 "units": Field(Str(tuple(LENGTH_UNITS)), default=None)}),
+                 "units": Field(Str(tuple(LENGTH_UNITS)), default=None),
+                 "body": Field(Str(expected="the name of one body (solid) of a multi-body STEP file"),
+                               default=None)}),
 })
 FEATURE = Map({
     "name": Field(Str(expected="a feature name"), required=True),
@@ -529,7 +531,11 @@ class _Builder:
                          f'"{full.suffix}"')
                 return None
             scale = LENGTH_UNITS[g["units"]] if g["units"] else self.ctx.scales["length"]
-            return Geometry(kind="mesh", mesh_file=full, mesh_scale=scale)
+            if g.get("body") is not None and full.suffix.lower() not in (".step", ".stp"):
+                self.err((*path, "body"), f'expected "body" only with a multi-body STEP file, found a '
+                         f'{full.suffix} file', key=True)
+                return None
+            return Geometry(kind="mesh", mesh_file=full, mesh_scale=scale, mesh_body=g.get("body"))
         if kind == "box":
             prims = (Primitive("box", np.eye(4), size_m=tuple(g["size"])),)
         elif kind == "cylinder":

@@ -86,7 +86,8 @@ class Geometry:
     """A part's shape: primitives (union) with holes cut and pins added, or a mesh file.
 
     ``kind`` is the YAML ``type`` (box, cylinder, composite, mesh). For ``mesh``,
-    ``mesh_file`` is an absolute path and ``mesh_scale`` converts its units to metres.
+    ``mesh_file`` is an absolute path and ``mesh_scale`` converts its units to metres;
+    ``mesh_body`` names one body of a multi-body file (STEP), None for the whole file.
     """
 
     kind: Literal["box", "cylinder", "sphere", "composite", "mesh"]
@@ -95,6 +96,7 @@ class Geometry:
     pins: tuple[PinAdd, ...] = ()
     mesh_file: Path | None = None
     mesh_scale: float = 1.0
+    mesh_body: str | None = None
 
 
 @dataclass(frozen=True, eq=False)

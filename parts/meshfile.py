@@ -128,6 +128,45 @@ def _check_step_frame(path: Path) -> None:
                             "the file looks truncated")
 
 
+def _step_scene(path: Path, step_deflection_m: float):
+    """A STEP file as a trimesh Scene through cascadio (metres; OpenCASCADE meshes in mm)."""
+    import trimesh
+
+    try:
+        import cascadio  # noqa: F401  (registers the STEP loader with trimesh)
+    except ImportError:
+        raise MeshFileError(path, "reading STEP needs the optional extra: pip install "
+                            "'asmplan[step]' (cascadio)") from None
+    _check_step_frame(path)
+    try:
+        return trimesh.load(str(path), force="scene", tol_linear=step_deflection_m * 1e3)
+    except FileNotFoundError:
+        raise MeshFileError(path, "cascadio (OpenCASCADE) could not translate the STEP file to "
+                            "a mesh: expected valid ISO 10303-21 entities describing a solid or "
+                            "a closed shell (OpenCASCADE printed its reason on the console)") from None
+    except Exception as exc:
+        raise MeshFileError(path, f"cannot read the file as STEP: {type(exc).__name__}: {exc}") from None
+
+
+def step_body_names(path: Path | str, step_deflection_m: float = 1e-4) -> list[str]:
+    """Names of the bodies (solid instances) of a STEP file, as ``body:`` takes them."""
+    scene = _step_scene(Path(path), step_deflection_m)
+    return [str(n) for n in scene.graph.nodes_geometry]
+
+
+def _step_body(path: Path, body: str, step_deflection_m: float):
+    """One named body of a STEP file, in the file's frame (its placement applied)."""
+    scene = _step_scene(path, step_deflection_m)
+    names = [str(n) for n in scene.graph.nodes_geometry]
+    for n in scene.graph.nodes_geometry:
+        T, geom = scene.graph[n]
+        if str(n) == body or str(geom) == body:
+            mesh = scene.geometry[geom].copy()
+            mesh.apply_transform(T)
+            return mesh
+    raise MeshFileError(path, f'expected a body named "{body}", found bodies: {", ".join(names)}')
+
+
 def _read(path: Path, step_deflection_m: float):
     """The file as an unprocessed trimesh. STEP surfaces are tessellated with a chordal
     deflection of ``step_deflection_m``: chords lie inside a curve, so a hole comes out up to
@@ -194,7 +233,7 @@ def _open_edges(mesh) -> int:
 
 
 def load_mesh_file(path: Path | str, scale: float = 1.0,
-                   settings: GeometrySettings | None = None) -> LoadedMesh:
+                   settings: GeometrySettings | None = None, body: str | None = None) -> LoadedMesh:
     """Read, scale, repair and check a mesh file (see the module docstring).
 
     Parameters
@@ -204,6 +243,9 @@ def load_mesh_file(path: Path | str, scale: float = 1.0,
         File units to metres (ignored for STEP, which carries its own units).
     settings : GeometrySettings, optional
         Size limits.
+    body : str, optional
+        One body (solid instance) of a multi-body STEP file, by its name; without it every body
+        is fused into one mesh and a note names them.
 
     Returns
     -------
@@ -233,9 +275,17 @@ def load_mesh_file(path: Path | str, scale: float = 1.0,
                                settings.max_triangles)
         notes.append(note)
         n_read = counted
+    elif body is not None:
+        mesh = _step_body(path, body, settings.exact_tolerance_m)
+        n_read = len(mesh.faces)
+        notes.append(f'body "{body}" of the STEP file')
     else:
         mesh = _read(path, settings.exact_tolerance_m)
         n_read = len(mesh.faces)
+        if path.suffix.lower() in _STEP_SUFFIXES:
+            bodies = step_body_names(path)
+            if len(bodies) > 1:
+                notes.append(multi_body_warning(path, bodies))
         if n_read > settings.hard_max_triangles:
             raise MeshFileError(path, f"{n_read:,} triangles, over the hard limit of "
                                 f"{settings.hard_max_triangles:,}; simplify it before use")
@@ -329,4 +379,11 @@ def _simplify(path: Path, triangles: np.ndarray, limit: int):
                         f"within {tol / 4:.3g} file units still left {small.num_tri():,}")
 
 
-__all__ = ["LoadedMesh", "MeshFileError", "count_triangles", "load_mesh_file"]
+def multi_body_warning(path: Path, bodies: list[str]) -> str:
+    """The warning for a multi-body file loaded as one part."""
+    return (f"{Path(path).name} holds {len(bodies)} bodies ({', '.join(bodies)}): they are fused "
+            "into one part; name one with geometry.body, or import the assembly with `asmplan import`")
+
+
+__all__ = ["LoadedMesh", "MeshFileError", "count_triangles", "load_mesh_file", "multi_body_warning",
+           "step_body_names"]

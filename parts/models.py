@@ -126,7 +126,7 @@ class ProductGeometry:
             if g.mesh_file is None:
                 raise self._input_error(part, "geometry: expected a mesh file, found none")
             try:
-                return load_mesh_file(g.mesh_file, g.mesh_scale, self.settings)
+                return load_mesh_file(g.mesh_file, g.mesh_scale, self.settings, body=g.mesh_body)
             except MeshFileError as exc:
                 raise self._input_error(part, f"mesh file {exc}") from None
         return self._get("mesh_file", part, make)

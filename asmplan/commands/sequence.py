@@ -114,7 +114,11 @@ def print_table(plan: SequencePlan, n_parts: int) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..parts.input_warnings import geometry_warnings
+
     product = load_product(args.product)
+    for w in geometry_warnings(product):
+        print(f"{args.product}: warning: {w}", file=sys.stderr)
     settings = settings_from_args(args)
     try:
         from ..parts.models import ProductGeometry

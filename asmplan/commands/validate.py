@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from typing import Any
 
 from ..knowledge.loader import load_product
@@ -43,11 +44,16 @@ def summary(product: Product) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..parts.input_warnings import geometry_warnings
+
     product = load_product(args.product)
     info = summary(product)
+    warnings = geometry_warnings(product)
     if args.json:
-        print(json.dumps({"valid": True, **info}, indent=2))
+        print(json.dumps({"valid": True, **info, "warnings": warnings}, indent=2))
         return 0
+    for w in warnings:
+        print(f"{args.product}: warning: {w}", file=sys.stderr)
     print(f'{args.product}: valid product "{product.name}": {len(product.parts)} parts, '
           f"{len(product.mates)} mates, {len(product.precedence.rules)} rules")
     width = max(len(p.name) for p in product.parts)
