@@ -1050,6 +1050,7 @@ class BenchReport:
     culling: list[CullingResult] | None = None
     sweep: SweepResult | None = None
     read: ReadTiming | None = None
+    cad_import: list[Any] | None = None
     regressions: list[Regression] = field(default_factory=list)
     started: str = ""
     wall_s: float = 0.0
@@ -1135,6 +1136,14 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
                 "`knowledge/yamlsource.py`) and the whole `load_product` (schema, model, consistency "
                 "checks); the last column is PyYAML's pure-Python `compose` of the same text, which "
                 "the reader used before.", "", format_read(rep.read)]
+    if rep.cad_import is not None:
+        from .cad_import import format_import
+
+        out += ["## CAD import", "",
+                "`bench.cad_import.bench()`: `import_assembly` (read, recognise features, propose "
+                "mates) on the 20-part STEP fixture `tests/fixtures/cad/two_stations_20.step` and two "
+                "mesh folders, 3 runs each; the target is < 10 s for a 20-part STEP.", "",
+                format_import(rep.cad_import)]
     out += ["## Accuracy bounds", "", "| figure | preset | bound | reason |", "| --- | --- | ---: | --- |"]
     out += [f"| {b.figure} | {b.preset} | {_fmt(b.limit, b.unit).lstrip('+')} | {b.reason} |" for b in BOUNDS]
     out += ["", "Regressions in this run: " + ("none" if not rep.regressions else

@@ -32,7 +32,7 @@ CHECKOUT = Path(__file__).resolve().parents[2]
 """The source checkout this asmplan runs from (for a wheel: site-packages, without bench/)."""
 
 SECTIONS: tuple[str, ...] = ("accuracy", "seed", "planning", "arm", "scaling", "culling", "sweep",
-                            "read")
+                            "read", "import")
 SCALING_SIZES: tuple[int, ...] = (5, 10, 20, 50, 100)
 
 
@@ -169,6 +169,11 @@ def run(args: argparse.Namespace) -> int:
         log(f"read: a generated {b.READ_PARTS}-part product file, {b.READ_RUNS} runs")
         rep.read = b.run_read()
         show("Reading a large product file", b.format_read(rep.read))
+    if "import" in sections:
+        cad = importlib.import_module("bench.cad_import")
+        log("CAD import: the 20-part STEP and two mesh folders, 3 runs each")
+        rep.cad_import = cad.bench()
+        show("CAD import", cad.format_import(rep.cad_import))
     rep.wall_s = time.perf_counter() - t_start
     if out is not None:
         plot = None
