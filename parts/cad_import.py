@@ -104,6 +104,7 @@ class ProposedMate:
     engaged_m: float
     fit: FitRule | None = None
     evidence: tuple[str, ...] = ()
+    engage_start_m: np.ndarray | None = None
 
     @property
     def simulated(self) -> bool:
@@ -333,7 +334,11 @@ def propose_mates(parts: list[ImportedPart], settings: ImportSettings, mesh: boo
                 if not pick_up:
                     axis = -af
                     mouth = pf_pt + af * f_lo
-            mates.append(ProposedMate(pm.name, fm, pf.name, ff, kind, mouth, axis, engaged, fit, tuple(ev)))
+            # where the engagement starts, from the mouth side: the male's root when seated
+            top = min(f_hi, m_hi) if axis @ af > 0 else max(f_lo, m_lo)
+            start = pf_pt + af * top
+            mates.append(ProposedMate(pm.name, fm, pf.name, ff, kind, mouth, axis, engaged, fit, tuple(ev),
+                                      start))
     mates.sort(key=lambda m: (m.female_part, m.female.name, m.male_part, m.male.name))
     return mates, notes
 
@@ -494,15 +499,16 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
             f = m.male
             name = f"{f.name}_{k}" if len(per_part_males[p.name]) > 1 else f.name
             male_feats[(p.name, _i)] = name
-            at = _apply(Tinv, m.mouth_m)
+            at = _apply(Tinv, m.engage_start_m)
             axis = Tinv[:3, :3] @ (-m.axis)
             # the tip is the male's end inside the female
             tip_t1 = float(np.dot(T[:3, :3] @ f.axis, -m.axis)) > 0
             ch = f.chamfer_t1_m if tip_t1 else f.chamfer_t0_m
             cham = f", chamfer: {_mm(ch)}" if ch else ""
             lines.append(f"      # {'; '.join(f.evidence)}; seated in {m.female_part}.{m.female.name}")
+            d = f.diameter_m
             lines.append(f"      - {{name: {name}, type: {f.kind}, at: {_vec_mm(at)}, axis: {_vec(axis)}, "
-                         f"diameter: {_mm(f.diameter_m)}, length: {_mm(m.engaged_m)}{cham}}}")
+                         f"diameter: {_mm(d)}, length: {_mm(m.engaged_m)}{cham}}}")
         if lines:
             w("    features:")
             L.extend(lines)

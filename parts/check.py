@@ -37,6 +37,7 @@ from .collision import CollisionWorld
 from .features import Finding, check_mates
 from .geometry import polygon_excess, sides_for_tolerance
 from .models import ProductGeometry
+from .nominal_contacts import nominal_contact
 from .pieces import CollisionModel, ConvexPiece, LevelOfDetail
 from .press_fit import press_fits
 
@@ -149,6 +150,12 @@ class AssemblyCheck:
 def _mate_bound(geometry: ProductGeometry, hole_part: str, hole_feature: str, level: LevelOfDetail) -> float:
     """Error bound (diametral, m) of the hole's clearance in the level's model."""
     if level == "exact":
+        # a mesh file's hole is the polygon of its tessellation: its chords sag inside the circle
+        from .nominal_contacts import mesh_hole_bound
+
+        sag = mesh_hole_bound(geometry, hole_part, hole_feature)
+        if sag is not None:
+            return sag + NUMERIC_ALLOWANCE_M
         # the exact hole polygon's faces are tangent to the circle: only the corner play
         # 2 c (sec(pi/n) - 1) of its n >= 160 sides separates it from the true hole
         for h in geometry.holes(hole_part):
@@ -226,6 +233,11 @@ def check_assembly(product: Product, geometry: ProductGeometry, level: LevelOfDe
         ok = allowed.get((c.a, c.b))
         if ok is not None and c.depth_m <= ok[1]:
             intended.append(Interference(c.a, c.b, c.depth_m, c.point_m, ok[0], c.depth_m))
+            continue
+        # CAD's line-to-line pin and hole (mesh parts): judged against the fit, real depth
+        nominal = nominal_contact(product, geometry, c.a, c.b)
+        if nominal is not None:
+            intended.append(Interference(c.a, c.b, nominal.depth_m, c.point_m, nominal.mate, c.depth_m))
         else:
             # report how far one part must move to clear the other (FCL's per-triangle depth
             # against a BVH is a local figure, not the overlap of the solids)

@@ -196,6 +196,13 @@ def fitted_sizes(product: Product) -> FeatureSizing:
             extra = mate.clearance_mean_m - (hole.diameter_m - pin.diameter_m)
             D = hole.diameter_m + 0.5 * extra
             d = pin.diameter_m - 0.5 * extra
+        # one side already sized by an earlier mate (a bore fitted H7 for a bearing that also
+        # takes a loose spacer): the other side takes this mate's whole clearance
+        hole_key, pin_key = (hole.part, hole.name), (pin.part, pin.name)
+        if hole_key in diam and pin_key not in diam:
+            D, d = diam[hole_key], diam[hole_key] - (D - d)
+        elif pin_key in diam and hole_key not in diam:
+            D, d = diam[pin_key] + (D - d), diam[pin_key]
         for key, value in (((pin.part, pin.name), d), ((hole.part, hole.name), D)):
             if key in diam and abs(diam[key] - value) > 1e-9:
                 notes.append(f"{key[0]}.{key[1]}: mate {mate.name} asks for {value * 1e3:.4f} mm, "

@@ -1,0 +1,57 @@
+"""`asmplan check` on an imported CAD product: line-to-line pins and holes drawn at one nominal
+diameter are judged against their fit with their real (tessellation) depth; a real overlap is
+still an interference."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from asmplan.knowledge.loader import load_product
+from asmplan.parts.cad_import import import_assembly, write_product
+from asmplan.parts.check import check_assembly
+
+pytest.importorskip("OCP")
+CAD = Path(__file__).resolve().parents[1] / "fixtures" / "cad"
+
+
+@pytest.fixture(scope="module")
+def bracket_yaml(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cad") / "bracket.yaml"
+    write_product(import_assembly(CAD / "angle_bracket.step"), out)
+    return out
+
+
+def test_line_to_line_pairs_are_judged_by_their_fit(bracket_yaml):
+    product = load_product(bracket_yaml)
+    result = check_assembly(product)
+    assert result.success, result.reason
+    assert not result.interferences
+    by_pair = {(i.a, i.b): i for i in result.intended_contacts}
+    for pair in (("angle_bracket", "dowel_1"), ("angle_bracket", "post"), ("dowel_1", "side_block")):
+        contact = by_pair[pair]
+        assert contact.intended_by is not None
+        # the real overlap is the tessellations' chord error (2 um deflection), not FCL's
+        # millimetre "depth" between two BVH meshes
+        assert contact.depth_m <= 2.5e-6
+    # every line-to-line mate's clearance is measured within its fit's range widened by the
+    # mesh hole's chord sagitta (and the H7 deviation the mesh cannot take)
+    for m in result.mates:
+        assert m.measured_within, m
+
+
+def test_a_real_overlap_is_still_an_interference(bracket_yaml, tmp_path):
+    text = bracket_yaml.read_text()
+    # push the side block 0.5 mm into the bracket's wall (+y)
+    text = re.sub(r"(- name: side_block\n(?:.*\n)*?    pose: \{xyz: \[0, )20(, 40\])", r"\g<1>20.5\2", text)
+    assert "[0, 20.5, 40]" in text
+    moved = tmp_path / "moved.yaml"
+    moved.write_text(text)
+    (tmp_path / "bracket_parts").symlink_to(bracket_yaml.parent / "bracket_parts")
+    result = check_assembly(load_product(moved))
+    assert not result.success
+    pairs = {(i.a, i.b): i for i in result.interferences}
+    hit = pairs[("angle_bracket", "side_block")]
+    assert hit.depth_m == pytest.approx(0.5e-3, abs=2e-6)
