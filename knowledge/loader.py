@@ -238,6 +238,9 @@ ROBOT = Map({
     "joints": Field(_JointTable(), default={}),
 }, name="a robot")
 RESOURCES = Map({
+    "units": Field(Map({"length": Field(Str(tuple(LENGTH_UNITS)), default=None),
+                        "mass": Field(Str(tuple(MASS_UNITS)), default=None)}, name="units of the cell"),
+                   default=None),
     "gripper": Field(GRIPPER, required=True),
     "table": Field(Map({"size": Field(Vec(3, "length", positive=True), required=True),
                         "friction": Field(Num(nonnegative=True, maximum=10.0), default=0.5)},
@@ -639,8 +642,25 @@ class _Builder:
                           if val is not None and val is not INVALID})
 
     def build_resources(self, v: dict[str, Any]) -> Resources | None:
-        if any(v.get(k) is INVALID for k in ("gripper", "table", "fixtures", "robot", "press")):
+        if any(v.get(k) is INVALID for k in ("gripper", "table", "fixtures", "robot", "press", "units")):
             return None
+        # the cell has its own units when given (resources.units); its values were read with the
+        # document's, so rescale them once here
+        units = v.get("units") or {}
+        k_len = LENGTH_UNITS[units["length"]] / self.ctx.scales["length"] if units.get("length") else 1.0
+        k_mass = MASS_UNITS[units["mass"]] / self.ctx.scales["mass"] if units.get("mass") else 1.0
+        if k_len != 1.0 or k_mass != 1.0:
+            g = v["gripper"]
+            g["stroke"] *= k_len
+            g["finger"]["size"] = [x * k_len for x in g["finger"]["size"]]
+            if g["mass"]:
+                g["mass"] *= k_mass
+            v["table"]["size"] = [x * k_len for x in v["table"]["size"]]
+            if v["robot"]:
+                v["robot"]["reach"] *= k_len
+                if v["robot"]["base"]:
+                    v["robot"]["base"]["xyz"] = [x * k_len for x in v["robot"]["base"]["xyz"]]
+        self.check_cell_scale(v, bool(units.get("length")))
         g = v["gripper"]
         if g["min_force"] > g["max_force"]:
             self.err(("resources", "gripper", "min_force"), f"expected min_force <= max_force "
@@ -662,6 +682,22 @@ class _Builder:
         robot = build_robot(v["robot"], self.base_dir, self.err) if v["robot"] else None
         press = Press(float(v["press"]["max_force"])) if v.get("press") else None
         return Resources(gripper, table, fixtures, robot, press=press)
+
+    def check_cell_scale(self, v: dict[str, Any], own_units: bool) -> None:
+        """A gripper stroke or a table out of any real cell's range means the product's length
+        unit was applied to the cell by mistake (a product in cm: an 85 cm stroke, an 8 m table):
+        an input error naming the value in mm, never a silent rescale."""
+        unit = [k for k, s in LENGTH_UNITS.items() if s == self.ctx.scales["length"]]
+        hint = ("" if own_units else f"; the document's length unit ({unit[0] if unit else '?'}) "
+                "applies to resources unless they give their own: resources.units: {length: mm}")
+        stroke = v["gripper"]["stroke"]
+        if not 1e-3 <= stroke <= 0.5:
+            self.err(("resources", "gripper", "stroke"), f"expected a gripper stroke of 1-500 mm, found "
+                     f"{stroke * 1e3:.4g} mm{hint}")
+        size = max(v["table"]["size"][:2])
+        if not 0.05 <= size <= 5.0:
+            self.err(("resources", "table", "size"), f"expected a table of 50 mm to 5 m, found "
+                     f"{size * 1e3:.4g} mm across{hint}")
 
     def check_part_ref(self, name: str, path: PathKey) -> bool:
         if name in self.known_names:

@@ -96,6 +96,9 @@ def test_dot_output_names_every_part(capsys) -> None:
 def test_explicit_clearance_and_length_units(tmp_path) -> None:
     text = example_path("peg_in_hole").read_text().replace("fit: H7/g6", "clearance: {min: 0.01, max: 0.03}")
     text = text.replace("units: {length: mm, mass: g}", "units: {length: cm, mass: kg}")
+    # the cell keeps its own unit (a product's unit never rescales the cell silently: a 60 cm
+    # stroke is an input error, tests/knowledge/test_cell_units.py)
+    text = text.replace("resources:\n", "resources:\n  units: {length: mm, mass: g}\n")
     doc = parse_located(text, "p.yaml")
     assert doc.data["mates"][0]["clearance"] == {"min": 0.01, "max": 0.03}
     path = tmp_path / "p.yaml"
