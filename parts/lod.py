@@ -659,14 +659,13 @@ def convex_pieces(shape: PartShape, sides: dict[str, HoleSides], settings: Geome
     tol = settings.convex_arc_tolerance_m
     notes: list[str] = []
     if shape.is_mesh:
-        if mesh_holes:
-            try:
-                sectors = _mesh_sector_pieces(mesh, list(mesh_holes), sides)
-                notes.append(f"mesh part: sectors around {len(mesh_holes)} declared hole(s), each sector's "
-                             "convex hull (outer concavities filled, holes kept as inscribed polygons)")
-                return sectors, tuple(notes)
-            except _Unsupported as why:
-                notes.append(f"mesh part: holes not decomposed ({why})")
+        # holes on any axes kept, concave faces split (pins, steps, slots): parts/mesh_convex.py
+        from .mesh_convex import mesh_feature_pieces
+
+        try:
+            return mesh_feature_pieces(mesh, list(mesh_holes), sides)
+        except ValueError as why:
+            notes.append(f"mesh part: not decomposed ({why})")
         hull = mesh.convex_hull
         excess = float(hull.volume / mesh.volume - 1.0)
         notes.append("mesh part: its convex hull" + (
