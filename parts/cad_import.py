@@ -428,6 +428,24 @@ def _write_stl(path: Path, V_m: np.ndarray, F: np.ndarray) -> None:
     tmp.replace(path)
 
 
+def _start_poses(parts: list[ImportedPart], base: str, zmin: float) -> dict[str, np.ndarray]:
+    """World start positions (m): a row of feeders behind the assembly (+y), each part in its
+    assembled orientation with its lowest point 15 mm above the table, 40 mm apart."""
+    world = {p.name: _apply_all(p.T_assembly_part, p.vertices_m) for p in parts}
+    y_row = max(float(v[:, 1].max()) for v in world.values()) + 0.12
+    x = min(float(v[:, 0].min()) for v in world.values())
+    out = {}
+    for p in parts:
+        if p.name == base:
+            continue
+        V = world[p.name] - p.T_assembly_part[:3, 3]  # about the part origin, assembled rotation
+        lo, hi = V.min(axis=0), V.max(axis=0)
+        out[p.name] = np.array([x - lo[0], y_row - 0.5 * (lo[1] + hi[1]), 0.015 - lo[2]])
+        x += float(hi[0] - lo[0]) + 0.04
+    _ = zmin
+    return out
+
+
 def _material(part: ImportedPart) -> str:
     males = [f for f in part.features if not f.female and f.kind in ("pin", "shaft", "thread")]
     return "steel" if males or any(f.kind == "hex" for f in part.features) else "aluminium"
@@ -454,6 +472,7 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     w(f"placement: {{xyz: [0, 0, {_fmt(-zmin * 1e3)}]}}   # the assembly's lowest point on the table")
     w("")
     w("parts:")
+    starts = _start_poses(simulated_parts, result.base, zmin)
     male_feats: dict[tuple[str, int], str] = {}
     female_used: dict[tuple[str, str], ProposedMate] = {}
     per_part_males: dict[str, list[tuple[int, ProposedMate]]] = {}
@@ -470,6 +489,9 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
         w(f"    pose: {{xyz: {_vec_mm(T[:3, 3])}, rpy: {_vec(_rpy_deg(T[:3, :3]))}}}")
         if p.name == result.base:
             w("    fixtured: true   # the largest part: the base, held by a fixture")
+        else:
+            w(f"    start: {{location: feeder, xyz: {_vec_mm(starts[p.name])}, "
+              f"rpy: {_vec(_rpy_deg(T[:3, :3]))}}}   # assembled orientation, 15 mm above the table")
         Tinv = np.linalg.inv(T)
         lines: list[str] = []
         comments: list[str] = []
