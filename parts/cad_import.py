@@ -428,7 +428,8 @@ def _write_stl(path: Path, V_m: np.ndarray, F: np.ndarray) -> None:
     tmp.replace(path)
 
 
-def _start_poses(parts: list[ImportedPart], base: str, zmin: float) -> dict[str, np.ndarray]:
+def _start_poses(parts: list[ImportedPart], base: str, frames: dict[str, np.ndarray]
+                 ) -> dict[str, np.ndarray]:
     """World start positions (m): a row of feeders behind the assembly (+y), each part in its
     assembled orientation with its lowest point 15 mm above the table, 40 mm apart."""
     world = {p.name: _apply_all(p.T_assembly_part, p.vertices_m) for p in parts}
@@ -438,12 +439,53 @@ def _start_poses(parts: list[ImportedPart], base: str, zmin: float) -> dict[str,
     for p in parts:
         if p.name == base:
             continue
-        V = world[p.name] - p.T_assembly_part[:3, 3]  # about the part origin, assembled rotation
+        V = world[p.name] - frames[p.name][:3, 3]  # about the part origin, assembled rotation
         lo, hi = V.min(axis=0), V.max(axis=0)
         out[p.name] = np.array([x - lo[0], y_row - 0.5 * (lo[1] + hi[1]), 0.015 - lo[2]])
         x += float(hi[0] - lo[0]) + 0.04
-    _ = zmin
     return out
+
+
+def _revolved_primitive(p: ImportedPart):
+    """A part that is a plain (chamfered) cylinder, optionally with one coaxial through bore
+    (a dowel, a pin, a shaft, a ring, a sleeve, a washer), as an exact primitive:
+    (T_definition_cylinder, diameter, length, bore feature or None, why) or None.
+
+    The primitive's volume must match the solid's within 0.5 %, so nothing else is hidden."""
+    males = [f for f in p.features if not f.female]
+    females = [f for f in p.features if f.female]
+    if len(males) != 1 or males[0].kind not in ("pin", "shaft") or len(females) > 1:
+        return None
+    m = males[0]
+    bore = females[0] if females else None
+    if bore is not None and (bore.kind != "bore" or not bore.through or bore.counterbore):
+        return None
+    r = 0.5 * m.diameter_m
+    length = m.length_m
+    vol = math.pi * r * r * length
+    for c in (m.chamfer_t0_m, m.chamfer_t1_m):
+        vol -= math.pi * c * c * (r - c / 3.0)
+    if bore is not None:
+        vol -= math.pi * (0.5 * bore.diameter_m) ** 2 * length
+    if abs(vol - p.volume_m3) > 5e-3 * p.volume_m3:
+        return None
+    a = m.axis
+    u = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
+    u /= np.linalg.norm(u)
+    T = np.eye(4)
+    T[:3, 0], T[:3, 1], T[:3, 2] = u, np.cross(a, u), a
+    T[:3, 3] = m.point_m + a * 0.5 * (m.t0_m + m.t1_m)
+    why = (f"recognised as a plain cylinder {m.diameter_m * 1e3:.6g} x {length * 1e3:.6g} mm"
+           + (f" with a {bore.diameter_m * 1e3:.6g} mm bore" if bore is not None else "")
+           + f" (its volume matches the CAD solid's within {abs(vol / p.volume_m3 - 1):.2%}): "
+           "an exact primitive")
+    return T, m.diameter_m, length, bore, why
+
+
+def _part_frame(p: ImportedPart) -> np.ndarray:
+    """The written part frame in the assembly: the definition's, or the primitive's."""
+    prim = _revolved_primitive(p)
+    return p.T_assembly_part if prim is None else p.T_assembly_part @ prim[0]
 
 
 def _material(part: ImportedPart) -> str:
@@ -472,7 +514,8 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     w(f"placement: {{xyz: [0, 0, {_fmt(-zmin * 1e3)}]}}   # the assembly's lowest point on the table")
     w("")
     w("parts:")
-    starts = _start_poses(simulated_parts, result.base, zmin)
+    frames = {p.name: _part_frame(p) for p in simulated_parts}
+    starts = _start_poses(simulated_parts, result.base, frames)
     male_feats: dict[tuple[str, int], str] = {}
     female_used: dict[tuple[str, str], ProposedMate] = {}
     per_part_males: dict[str, list[tuple[int, ProposedMate]]] = {}
@@ -483,23 +526,45 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     for p in simulated_parts:
         w(f"  - name: {p.name}")
         w(f"    material: {_material(p)}")
-        w(f"    geometry: {{type: mesh, file: {mesh_dir_rel}/{p.definition}.stl, units: mm}}"
-          f"   # definition {p.definition}")
-        T = p.T_assembly_part
+        prim = _revolved_primitive(p)
+        bore_written = None
+        if prim is None:
+            w(f"    geometry: {{type: mesh, file: {mesh_dir_rel}/{p.definition}.stl, units: mm}}"
+              f"   # definition {p.definition}")
+        T = frames[p.name]
+        Tinv = np.linalg.inv(T)
+        if prim is not None:
+            _T, d, length, bore, why = prim
+            w(f"    # {why}")
+            if bore is None:
+                w(f"    geometry: {{type: cylinder, diameter: {_mm(d)}, length: {_mm(length)}}}")
+            else:
+                used = female_used.get((p.name, bore.name))
+                axis, mouth = Tinv[:3, :3] @ (p.T_assembly_part[:3, :3] @ bore.axis), \
+                    _apply(Tinv, _apply(p.T_assembly_part, bore.mouth_m))
+                if used is not None:
+                    axis, mouth = Tinv[:3, :3] @ used.axis, _apply(Tinv, used.mouth_m)
+                cham = f", chamfer: {_mm(bore.chamfer_m)}" if bore.chamfer_m else ""
+                w(f"    geometry: {{type: cylinder, diameter: {_mm(d)}, length: {_mm(length)}, holes: "
+                  f"[{{name: {bore.name}, at: {_vec_mm(mouth)}, axis: {_vec(axis)}, "
+                  f"diameter: {_mm(bore.diameter_m)}, through: true{cham}}}]}}")
+                bore_written = bore.name
         w(f"    pose: {{xyz: {_vec_mm(T[:3, 3])}, rpy: {_vec(_rpy_deg(T[:3, :3]))}}}")
         if p.name == result.base:
             w("    fixtured: true   # the largest part: the base, held by a fixture")
         else:
             w(f"    start: {{location: feeder, xyz: {_vec_mm(starts[p.name])}, "
               f"rpy: {_vec(_rpy_deg(T[:3, :3]))}}}   # assembled orientation, 15 mm above the table")
-        Tinv = np.linalg.inv(T)
         lines: list[str] = []
         comments: list[str] = []
+        T_def = np.linalg.inv(T) @ p.T_assembly_part  # definition frame -> written part frame
         for f in p.features:
             ev = "; ".join(f.evidence)
+            if f.name == bore_written:
+                continue
             if f.female and f.kind in ("hole", "bore"):
                 used = female_used.get((p.name, f.name))
-                axis, mouth = f.axis, f.mouth_m
+                axis, mouth = T_def[:3, :3] @ f.axis, _apply(T_def, f.mouth_m)
                 if used is not None and f.through:
                     axis = Tinv[:3, :3] @ used.axis
                     mouth = _apply(Tinv, used.mouth_m)
@@ -524,7 +589,7 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
             at = _apply(Tinv, m.engage_start_m)
             axis = Tinv[:3, :3] @ (-m.axis)
             # the tip is the male's end inside the female
-            tip_t1 = float(np.dot(T[:3, :3] @ f.axis, -m.axis)) > 0
+            tip_t1 = float(np.dot(p.T_assembly_part[:3, :3] @ f.axis, -m.axis)) > 0
             ch = f.chamfer_t1_m if tip_t1 else f.chamfer_t0_m
             cham = f", chamfer: {_mm(ch)}" if ch else ""
             lines.append(f"      # {'; '.join(f.evidence)}; seated in {m.female_part}.{m.female.name}")
@@ -574,7 +639,12 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     w("precedence:")
     w(f"  base: {result.base}")
     w("")
+    w("process:")
+    w("  # sliding fits resist the insertion: the grip must carry it (raises the clamp force)")
+    w("  insertion_resistance: 2   # N, an estimate: edit")
+    w("")
     w("resources:   # a default cell; every length in mm")
+    w("  units: {length: mm, mass: kg}")
     w("  gripper: {type: parallel, stroke: 100, finger: {size: [20, 8, 30], friction: 1.0}, max_force: 60, "
       "mass: 0.6}")
     w("  table: {size: [800, 600, 40], friction: 0.5}")
