@@ -62,6 +62,7 @@ class ImportSettings:
     max_clearance_ratio : a drawn diametral clearance up to this fraction of the male diameter
         makes a mate; a larger gap is a pass-through (noted, no mate).
     mesh_units_m : metres per unit of mesh files (STEP carries its own unit).
+    primitives : write plain (chamfered, bored) cylinders as exact primitives, not meshes.
     fit_rules : default fits for line-to-line pairs (None: the built-in knowledge).
     """
 
@@ -69,6 +70,7 @@ class ImportSettings:
     max_clearance_ratio: float = 0.35
     mesh_units_m: float = 1e-3
     fit_rules: tuple[FitRule, ...] | None = None
+    primitives: bool = True
 
 
 @dataclass(frozen=True, eq=False)
@@ -121,6 +123,7 @@ class ImportResult:
     fasteners: tuple[str, ...]
     base: str
     notes: tuple[str, ...] = field(default_factory=tuple)
+    primitives: bool = True
 
     def part(self, name: str) -> ImportedPart:
         return next(p for p in self.parts if p.name == name)
@@ -377,7 +380,7 @@ def import_assembly(path: Path | str, settings: ImportSettings | None = None) ->
                           and _is_nut(parts, m.female_part)})
     base = max(parts, key=lambda p: p.volume_m3).name
     return ImportResult(path, _clean(name), unit, tuple(parts), tuple(mates), tuple(fasteners), base,
-                        tuple(notes + mnotes))
+                        tuple(notes + mnotes), settings.primitives)
 
 
 def _is_nut(parts: list[ImportedPart], name: str) -> bool:
@@ -482,9 +485,9 @@ def _revolved_primitive(p: ImportedPart):
     return T, m.diameter_m, length, bore, why
 
 
-def _part_frame(p: ImportedPart) -> np.ndarray:
+def _part_frame(p: ImportedPart, primitives: bool = True) -> np.ndarray:
     """The written part frame in the assembly: the definition's, or the primitive's."""
-    prim = _revolved_primitive(p)
+    prim = _revolved_primitive(p) if primitives else None
     return p.T_assembly_part if prim is None else p.T_assembly_part @ prim[0]
 
 
@@ -514,7 +517,7 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     w(f"placement: {{xyz: [0, 0, {_fmt(-zmin * 1e3)}]}}   # the assembly's lowest point on the table")
     w("")
     w("parts:")
-    frames = {p.name: _part_frame(p) for p in simulated_parts}
+    frames = {p.name: _part_frame(p, result.primitives) for p in simulated_parts}
     starts = _start_poses(simulated_parts, result.base, frames)
     male_feats: dict[tuple[str, int], str] = {}
     female_used: dict[tuple[str, str], ProposedMate] = {}
@@ -526,7 +529,7 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     for p in simulated_parts:
         w(f"  - name: {p.name}")
         w(f"    material: {_material(p)}")
-        prim = _revolved_primitive(p)
+        prim = _revolved_primitive(p) if result.primitives else None
         bore_written = None
         if prim is None:
             w(f"    geometry: {{type: mesh, file: {mesh_dir_rel}/{p.definition}.stl, units: mm}}"
@@ -669,7 +672,8 @@ def write_product(result: ImportResult, out: Path | str, *, force: bool = False)
     written = []
     done = set()
     for p in result.parts:
-        if p.name in result.fasteners or p.definition in done:
+        if p.name in result.fasteners or p.definition in done or \
+                (result.primitives and _revolved_primitive(p) is not None):
             continue
         done.add(p.definition)
         target = mesh_dir / f"{p.definition}.stl"

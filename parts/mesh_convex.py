@@ -122,14 +122,26 @@ def _sectors(solid, holes: list[HoleShape], sides: dict) -> list[tuple[object, s
         return [(solid, "body")]
     axis = holes[0].T_part_hole[:3, 2]
     centres = [h.T_part_hole[:3, 3] - float(h.T_part_hole[:3, 3] @ axis) * axis for h in holes]
+    def extent(h: HoleShape) -> tuple[float, float]:
+        t0 = float(h.T_part_hole[:3, 3] @ axis)
+        t1 = t0 - float(h.T_part_hole[:3, 2] @ axis) * h.depth_m
+        return min(t0, t1), max(t0, t1)
+
     out: list[tuple[object, str]] = []
     for i, h in enumerate(holes):
         cell = solid
+        lo_i, hi_i = extent(h)
         for j, cj in enumerate(centres):
             if j != i:
                 nrm = centres[i] - cj
                 norm = float(np.linalg.norm(nrm))
-                if norm < 1e-12:
+                if norm < 1e-7:
+                    # coaxial (a stepped bore): each hole keeps its own slab along the axis
+                    lo_j, hi_j = extent(holes[j])
+                    if hi_j <= lo_i + 1e-7:
+                        cell = _trim(cell, axis, 0.5 * (hi_j + lo_i))
+                    elif lo_j >= hi_i - 1e-7:
+                        cell = _trim(cell, -axis, -0.5 * (lo_j + hi_i))
                     continue
                 nrm = nrm / norm
                 cell = _trim(cell, nrm, float(nrm @ (0.5 * (centres[i] + cj))))
