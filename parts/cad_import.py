@@ -434,7 +434,7 @@ def _write_stl(path: Path, V_m: np.ndarray, F: np.ndarray) -> None:
 def _start_poses(parts: list[ImportedPart], base: str, frames: dict[str, np.ndarray]
                  ) -> dict[str, np.ndarray]:
     """World start positions (m): a row of feeders behind the assembly (+y), each part in its
-    assembled orientation with its lowest point 15 mm above the table, 40 mm apart."""
+    assembled orientation with its lowest point 15 mm above the table, 80 mm apart."""
     world = {p.name: _apply_all(p.T_assembly_part, p.vertices_m) for p in parts}
     y_row = max(float(v[:, 1].max()) for v in world.values()) + 0.12
     x = min(float(v[:, 0].min()) for v in world.values())
@@ -445,7 +445,7 @@ def _start_poses(parts: list[ImportedPart], base: str, frames: dict[str, np.ndar
         V = world[p.name] - frames[p.name][:3, 3]  # about the part origin, assembled rotation
         lo, hi = V.min(axis=0), V.max(axis=0)
         out[p.name] = np.array([x - lo[0], y_row - 0.5 * (lo[1] + hi[1]), 0.015 - lo[2]])
-        x += float(hi[0] - lo[0]) + 0.04
+        x += float(hi[0] - lo[0]) + 0.08
     return out
 
 
