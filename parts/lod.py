@@ -53,8 +53,8 @@ Every convex and coarse model is measured against the exact solid:
   both ways. The error is the largest deviation from ``2 c``.
 
 The exact level is not measured: its error is the polygon bound (``exact_tolerance_m``) by
-construction. Mesh-file parts: exact = BVH of the mesh; convex = the sector hulls around
-their declared holes (parallel axes), else the hull; coarse = the hull.
+construction. Mesh-file parts: exact = BVH of the mesh; convex = :mod:`asmplan.parts.mesh_convex`
+(sectors around declared holes on any axes, concave faces split, not filled); coarse = the hull.
 """
 
 from __future__ import annotations
@@ -508,56 +508,6 @@ def _bsp_pieces(body: BodyShape, holes: list[HoleShape], sides: dict[str, HoleSi
                         break
             pieces = nxt
     return [_hull_piece(p, f"{name}/bsp{i}") for i, p in enumerate(pieces)]
-
-
-def _mesh_sector_pieces(mesh, holes: list[HoleShape], sides: dict[str, HoleSides]) -> tuple[ConvexPiece, ...]:
-    """Convex pieces of a mesh solid with declared holes along parallel axes.
-
-    Space is split into one prism per hole (the Voronoi cells of the hole axes), each cell into
-    ``n`` wedges around its hole, each wedge cut by the plane of its polygon face (inscribed
-    radius = the hole radius) and, for a blind hole, by the plane of its floor (the floor
-    below is one more piece). Every piece of the mesh is replaced by its convex hull, which
-    stays inside those planes: the holes keep exactly their polygon; outer concavities of the
-    mesh within a sector are filled.
-    """
-    from .geometry import trimesh_to_manifold
-
-    solid = trimesh_to_manifold(mesh)
-    axis = holes[0].T_part_hole[:3, 2]
-    if any(abs(abs(float(h.T_part_hole[:3, 2] @ axis)) - 1.0) > 1e-9 for h in holes):
-        raise _Unsupported("declared holes are not parallel")
-    centres = [h.T_part_hole[:3, 3] - float(h.T_part_hole[:3, 3] @ axis) * axis for h in holes]
-    out: list[ConvexPiece] = []
-    for i, h in enumerate(holes):
-        cell = solid
-        for j, cj in enumerate(centres):
-            if j != i:  # keep the half-space nearer to axis i
-                nrm = centres[i] - cj
-                cell = cell.trim_by_plane(list(nrm / np.linalg.norm(nrm)),
-                                          float(nrm @ (0.5 * (centres[i] + cj)) / np.linalg.norm(nrm)))
-        n = sides[h.feature].n_sides
-        Rh = h.T_part_hole[:3, :3]
-        o = h.T_part_hole[:3, 3]
-        ring = cell
-        if not h.through:
-            floor = o - h.depth_m * Rh[:, 2]
-            below, ring = cell.trim_by_plane(list(-Rh[:, 2]), float(-Rh[:, 2] @ floor)), \
-                cell.trim_by_plane(list(Rh[:, 2]), float(Rh[:, 2] @ floor))
-            if not below.is_empty() and below.volume() > 1e-15:
-                out.append(_hull_piece(_manifold_points(below), f"hole{i}/floor"))
-        for k in range(n):
-            phi = 2.0 * math.pi * k / n
-            a0, a1 = phi - math.pi / n, phi + math.pi / n
-            # counter-clockwise of ray a0, clockwise of ray a1, outside face k
-            n0 = Rh @ np.array([-math.sin(a0), math.cos(a0), 0.0])
-            n1 = Rh @ np.array([math.sin(a1), -math.cos(a1), 0.0])
-            nf = Rh @ np.array([math.cos(phi), math.sin(phi), 0.0])
-            piece = ring.trim_by_plane(list(n0), float(n0 @ o)).trim_by_plane(list(n1), float(n1 @ o))
-            piece = piece.trim_by_plane(list(nf), float(nf @ o + h.radius_m))
-            if piece.is_empty() or piece.volume() <= 1e-15:
-                continue
-            out.append(_hull_piece(_manifold_points(piece), f"hole{i}/side{k}"))
-    return tuple(out)
 
 
 def _manifold_points(solid) -> np.ndarray:

@@ -12,7 +12,7 @@ is not a declared feature became one hull with the feature filled (issue 19). He
 2. **Sectors around holes.** In a region, space is split into one prism per hole (the Voronoi
    cells of the hole axes) and each prism into ``n`` wedges around its hole, each wedge cut by
    the plane of its polygon face (inscribed radius = the fitted hole radius) and, for a blind
-   hole, by its floor (as :func:`asmplan.parts.lod._mesh_sector_pieces`).
+   hole, by its floor; coaxial holes (a stepped bore) each keep their own slab along the axis.
 3. **Concave faces split, not filled.** A piece whose hull is larger than itself by more than
    ``rel_tol`` is split by the plane of its largest concave face (a face with some of the
    piece beyond its plane), recursively, until every piece is convex within ``rel_tol`` or the
