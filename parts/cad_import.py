@@ -503,7 +503,7 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     mates = [m for m in result.mates if m.male_part in names and m.female_part in names]
     L: list[str] = []
     w = L.append
-    w(f"# Imported by `asmplan import` from {result.source.name} (file unit: {result.file_unit}).")
+    w(f"{_HEADER} from {result.source.name} (file unit: {result.file_unit}).")
     w("# Review before use: every recognised feature and proposed mate carries its evidence;")
     w("# fits of line-to-line pairs come from the default fit rules (knowledge/data/default_fits.yaml);")
     w("# materials are guessed from the shape (steel for pins, shafts and fasteners).")
@@ -655,20 +655,69 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     return "\n".join(L) + "\n"
 
 
-def write_product(result: ImportResult, out: Path | str, *, force: bool = False) -> list[Path]:
+_MARKER = ".asmplan-import"
+_HEADER = "# Imported by `asmplan import`"
+
+
+def check_outputs(out: Path | str) -> Path:
+    """Refuse, before any work, outputs asmplan import did not write (module docstring).
+
+    ``out`` may be missing or a product file this command wrote (its first line); its parts
+    folder ``<stem>_parts`` may be missing, empty, or hold only what the marker file
+    ``.asmplan-import`` lists. Returns the parts folder.
+
+    Raises
+    ------
+    CadImportError
+        Naming the path and what it holds.
+    """
+    import json
+
+    out = Path(out)
+    if out.is_symlink() or (out.exists() and not out.is_file()):
+        raise CadImportError(out, "is not a regular file: expected a product YAML file to write")
+    if out.exists() and not out.read_text(errors="replace").startswith(_HEADER):
+        raise CadImportError(out, "exists and was not written by asmplan import: choose another name")
+    if not out.parent.is_dir():
+        raise CadImportError(out, f"its folder {out.parent} does not exist")
+    mesh_dir = out.parent / f"{out.stem}_parts"
+    if mesh_dir.is_symlink() or (mesh_dir.exists() and not mesh_dir.is_dir()):
+        raise CadImportError(mesh_dir, "is not a folder: the part meshes go there")
+    if mesh_dir.is_dir():
+        present = sorted(p.name for p in mesh_dir.iterdir())
+        listed: list[str] = []
+        marker = mesh_dir / _MARKER
+        if marker.is_file():
+            try:
+                listed = list(json.loads(marker.read_text()).get("files", []))
+            except (ValueError, AttributeError):
+                listed = []
+        foreign = [n for n in present if n != _MARKER and n not in listed]
+        if foreign:
+            raise CadImportError(mesh_dir, "holds files asmplan import did not write: "
+                                 f"{', '.join(foreign[:5])}{' ...' if len(foreign) > 5 else ''}; "
+                                 "choose another output name")
+    return mesh_dir
+
+
+def write_product(result: ImportResult, out: Path | str) -> list[Path]:
     """Write ``out`` (the product YAML) and ``<out stem>_parts/<definition>.stl`` (mm).
 
-    Refuses to overwrite a file asmplan did not write (one without the import header) unless
-    ``force``. Returns the files written.
+    Never overwrites what asmplan import did not write (:func:`check_outputs`); meshes of an
+    earlier import that this one does not need are removed (the marker lists them). Every
+    file is written atomically. Returns the files written.
     """
+    import json
+
+    from ..fileio import atomic_write_text
+
     out = Path(out)
-    if out.exists() and not force:
-        head = out.read_text(errors="replace")[:200]
-        if not head.startswith("# Imported by `asmplan import`"):
-            raise CadImportError(out, "exists and was not written by asmplan import: choose another "
-                                 "name or pass --force")
-    mesh_dir = out.parent / f"{out.stem}_parts"
-    mesh_dir.mkdir(parents=True, exist_ok=True)
+    mesh_dir = check_outputs(out)
+    mesh_dir.mkdir(exist_ok=True)
+    marker = mesh_dir / _MARKER
+    old = []
+    if marker.is_file():
+        old = list(json.loads(marker.read_text()).get("files", []))
     written = []
     done = set()
     for p in result.parts:
@@ -679,10 +728,12 @@ def write_product(result: ImportResult, out: Path | str, *, force: bool = False)
         target = mesh_dir / f"{p.definition}.stl"
         _write_stl(target, p.vertices_m, p.faces)
         written.append(target)
-    text = product_yaml(result, mesh_dir.name)
-    tmp = out.with_suffix(out.suffix + ".tmp")
-    tmp.write_text(text)
-    tmp.replace(out)
+    names = sorted(t.name for t in written)
+    atomic_write_text(marker, json.dumps({"written_by": "asmplan-import", "files": names}))
+    for n in old:
+        if n not in names and (mesh_dir / n).is_file():
+            (mesh_dir / n).unlink()
+    atomic_write_text(out, product_yaml(result, mesh_dir.name))
     written.append(out)
     return written
 

@@ -2,7 +2,7 @@
 (in assembled pose) becomes a product file, with its recognised features and proposed mates.
 
 Exit codes: 0 written, 2 bad input (missing or unreadable file, an output asmplan did not
-write).
+write: refused before any work, nothing written).
 """
 
 from __future__ import annotations
@@ -30,8 +30,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-clearance-ratio", type=float, default=0.35,
                    help="a drawn clearance up to this fraction of the pin diameter makes a mate "
                         "(default 0.35)")
-    p.add_argument("--force", action="store_true",
-                   help="overwrite an output file that asmplan import did not write")
     p.set_defaults(func=run)
 
 
@@ -39,6 +37,7 @@ def run(args: argparse.Namespace) -> int:
     from ..parts.cad_import import (
         CadImportError,
         ImportSettings,
+        check_outputs,
         import_assembly,
         summary_lines,
         write_product,
@@ -47,8 +46,9 @@ def run(args: argparse.Namespace) -> int:
     settings = ImportSettings(mesh_units_m=LENGTH_UNITS[args.mesh_units],
                               max_clearance_ratio=args.max_clearance_ratio)
     try:
+        check_outputs(Path(args.output))  # before any work: never overwrite what asmplan did not write
         result = import_assembly(Path(args.assembly), settings)
-        written = write_product(result, Path(args.output), force=args.force)
+        written = write_product(result, Path(args.output))
     except CadImportError as exc:
         print(f"asmplan import: {exc}", file=sys.stderr)
         return 2

@@ -191,11 +191,27 @@ def test_imported_product_loads_with_features_and_fits(tmp_path):
 
 
 def test_import_refuses_to_overwrite_a_file_it_did_not_write(tmp_path):
-    from asmplan.parts.cad_import import CadImportError
+    from asmplan.cli import main
 
-    result = import_assembly(CAD / "angle_bracket.step")
     out = tmp_path / "mine.yaml"
     out.write_text("asmplan: 1\n")
-    with pytest.raises(CadImportError, match="not written by asmplan import"):
-        write_product(result, out)
+    assert main(["import", str(CAD / "angle_bracket.step"), "-o", str(out)]) == 2
     assert out.read_text() == "asmplan: 1\n"
+    assert not (tmp_path / "mine_parts").exists()
+    # a parts folder holding someone else's file is refused too, before any work
+    (tmp_path / "p_parts").mkdir()
+    (tmp_path / "p_parts" / "notes.txt").write_text("mine")
+    assert main(["import", str(CAD / "angle_bracket.step"), "-o", str(tmp_path / "p.yaml")]) == 2
+    assert not (tmp_path / "p.yaml").exists()
+    # its own output is replaced, and meshes no longer needed are removed
+    ok = tmp_path / "ok.yaml"
+    assert main(["import", str(CAD / "angle_bracket.step"), "-o", str(ok)]) == 0
+    (tmp_path / "ok_parts" / "old.stl").write_text("x")
+    import json
+    marker = tmp_path / "ok_parts" / ".asmplan-import"
+    data = json.loads(marker.read_text())
+    marker.write_text(json.dumps({**data, "files": [*data["files"], "old.stl"]}))
+    assert main(["import", str(CAD / "angle_bracket.step"), "-o", str(ok)]) == 0
+    assert not (tmp_path / "ok_parts" / "old.stl").exists()
+    assert sorted(p.name for p in (tmp_path / "ok_parts").iterdir()) == sorted(
+        [".asmplan-import", "angle_bracket.stl", "knob.stl", "side_block.stl"])
