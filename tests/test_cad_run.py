@@ -55,3 +55,19 @@ def test_imported_locating_fixture_runs_its_pin_steps_at_fast(tmp_path):
     assert result.results is not None, result.failure
     ok = {s.part for s in result.results.steps if s.outcome is not None and s.outcome.success}
     assert {"dowel_1", "dowel_2", "locating_plate", "locating_pin_1", "locating_pin_2"} <= ok
+
+
+@pytest.mark.slow
+def test_bearing_seated_flush_in_its_bore_has_no_gripper_grasp(tmp_path):
+    """The ground truth calls the bearings a press-tool step: the planner finds no grasp for a
+    two-finger gripper around a bearing that ends flush in its bore, and says so."""
+    import yaml
+
+    from asmplan.pipeline import RunSettings, run_product
+
+    truth = yaml.safe_load((CAD / "bearing_housing.truth.yaml").read_text())
+    assert not next(s for s in truth["order"] if s["part"] == "bearing_1")["feasible"]
+    product = _imported("bearing_housing", tmp_path)
+    result = run_product(product, RunSettings(fidelity="fast", workers=1, simulate=False))
+    assert result.failure is not None
+    assert 'part "bearing_1"' in result.failure and "no feasible grasp" in result.failure
