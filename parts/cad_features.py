@@ -289,8 +289,8 @@ def fit_mesh_surfaces(vertices_m: np.ndarray, faces: np.ndarray, *, smooth_angle
             u, w = _basis(a)
             X = V - p
             ang_v = np.sort(np.arctan2(X @ w, X @ u))
-            gaps = np.diff(np.concatenate([ang_v, [ang_v[0] + 2 * math.pi]]))
-            span = 2 * math.pi - float(gaps.max())
+            ang_gaps = np.diff(np.concatenate([ang_v, [ang_v[0] + 2 * math.pi]]))
+            span = 2 * math.pi - float(ang_gaps.max())
             out.append(Surface("cylinder", p, a, r, inner, float(t.min()), float(t.max()), span,
                                area_m2=float(W.sum()), residual_m=rms,
                                evidence=f"cylinder fitted to {len(vids)} vertices, rms {rms * 1e6:.2g} um"))
@@ -557,7 +557,7 @@ def recognise(surfaces: list[Surface], vertices_m: np.ndarray, faces: np.ndarray
                                    evidence=tuple(ev)))
     # -- non-round -------------------------------------------------------------------------
     axes_seen: list[tuple[np.ndarray, np.ndarray]] = [(c.point, c.axis) for c in full]
-    hex_done = []
+    hex_done: list[tuple[float, np.ndarray, np.ndarray]] = []
     for p, a in axes_seen:
         for af, outer in _hexagons(planes, p, a, tol):
             if any(abs(af - h[0]) < 1e-9 and line_distance(h[1], h[2], p) < 1e-6 for h in hex_done):

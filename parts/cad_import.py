@@ -589,7 +589,7 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
             f = m.male
             name = f"{f.name}_{k}" if len(per_part_males[p.name]) > 1 else f.name
             male_feats[(p.name, _i)] = name
-            at = _apply(Tinv, m.engage_start_m)
+            at = _apply(Tinv, m.engage_start_m if m.engage_start_m is not None else m.mouth_m)
             axis = Tinv[:3, :3] @ (-m.axis)
             # the tip is the male's end inside the female
             tip_t1 = float(np.dot(p.T_assembly_part[:3, :3] @ f.axis, -m.axis)) > 0
