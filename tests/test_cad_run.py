@@ -31,10 +31,12 @@ def _imported(name: str, tmp_path: Path):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(PRECEDENCES))
 def test_imported_fixture_sequences_in_a_physically_right_order(name, tmp_path):
+    from asmplan.parts.models import ProductGeometry
+    from asmplan.planner.fcl_oracle import FclOracle
     from asmplan.planner.sequence import plan_sequence
 
     product = _imported(name, tmp_path)
-    plan = plan_sequence(product)
+    plan = plan_sequence(product, FclOracle(product, ProductGeometry(product)))
     assert plan.sequences, f"{name}: no feasible order"
     for seq in plan.sequences:
         order = list(seq.order)

@@ -12,6 +12,7 @@ import pytest
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.cad_import import ImportSettings, import_assembly, write_product
 from asmplan.parts.check import check_assembly
+from asmplan.parts.models import ProductGeometry
 
 pytest.importorskip("OCP")
 CAD = Path(__file__).resolve().parents[1] / "fixtures" / "cad"
@@ -27,7 +28,7 @@ def bracket_yaml(tmp_path_factory):
 
 def test_line_to_line_pairs_are_judged_by_their_fit(bracket_yaml):
     product = load_product(bracket_yaml)
-    result = check_assembly(product)
+    result = check_assembly(product, ProductGeometry(product))
     assert result.success, result.reason
     assert not result.interferences
     by_pair = {(i.a, i.b): i for i in result.intended_contacts}
@@ -51,7 +52,8 @@ def test_a_real_overlap_is_still_an_interference(bracket_yaml, tmp_path):
     moved = tmp_path / "moved.yaml"
     moved.write_text(text)
     (tmp_path / "bracket_parts").symlink_to(bracket_yaml.parent / "bracket_parts")
-    result = check_assembly(load_product(moved))
+    moved_product = load_product(moved)
+    result = check_assembly(moved_product, ProductGeometry(moved_product))
     assert not result.success
     pairs = {(i.a, i.b): i for i in result.interferences}
     hit = pairs[("angle_bracket", "side_block")]
