@@ -210,6 +210,14 @@ def mate_inconsistencies(product: Product) -> list[Inconsistency]:
             continue
         pairs[pair] = mate.name
         d_pin, d_hole = _built_diameters(pin, hole, mate)
+        # one side already built by an earlier mate (a bore fitted H7 for a bearing that also
+        # takes a loose spacer): the other side takes this mate's whole clearance, as
+        # parts.geometry.fitted_sizes builds it
+        hk, pk = (hole.part, hole.name), (pin.part, pin.name)
+        if hk in built and pk not in built:
+            d_hole, d_pin = built[hk][0], built[hk][0] - (d_hole - d_pin)
+        elif pk in built and hk not in built:
+            d_pin, d_hole = built[pk][0], built[pk][0] + (d_hole - d_pin)
         key = "fit" if mate.fit else ("interference" if mate.clearance_max_m < 0 and
                                       mate.clearance_min_m == mate.clearance_max_m else "clearance")
         bad = [(f, d) for f, d in ((pin, d_pin), (hole, d_hole)) if d < 0.5 * f.diameter_m]

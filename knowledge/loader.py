@@ -237,7 +237,36 @@ ROBOT = Map({
     "reach": Field(Num("length", positive=True)),
     "joints": Field(_JointTable(), default={}),
 }, name="a robot")
-RESOURCES = Map({
+
+
+class _CellMap(Map):
+    """The resources section, read in its own ``units`` when it gives them (the cell keeps its
+    units whatever the product's): the scales and unit names are swapped while it is checked,
+    so limits and messages use the cell's units too."""
+
+    def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
+        units = value.get("units") if isinstance(value, dict) else None
+        if not isinstance(units, dict):
+            return super().check(value, path, ctx)
+        scales, names = dict(ctx.scales), dict(ctx.unit_names)
+        length, mass = units.get("length"), units.get("mass")
+        if isinstance(length, str) and length in LENGTH_UNITS:
+            L = LENGTH_UNITS[length]
+            ctx.scales.update(length=L, speed=L, acceleration=L)
+            ctx.unit_names.update(length=length, speed=f"{length}/s", acceleration=f"{length}/s^2")
+        if isinstance(mass, str) and mass in MASS_UNITS:
+            ctx.scales.update(mass=MASS_UNITS[mass])
+            ctx.unit_names.update(mass=mass)
+        try:
+            return super().check(value, path, ctx)
+        finally:
+            ctx.scales.clear()
+            ctx.scales.update(scales)
+            ctx.unit_names.clear()
+            ctx.unit_names.update(names)
+
+
+RESOURCES = _CellMap({
     "units": Field(Map({"length": Field(Str(tuple(LENGTH_UNITS)), default=None),
                         "mass": Field(Str(tuple(MASS_UNITS)), default=None)}, name="units of the cell"),
                    default=None),
@@ -644,22 +673,8 @@ class _Builder:
     def build_resources(self, v: dict[str, Any]) -> Resources | None:
         if any(v.get(k) is INVALID for k in ("gripper", "table", "fixtures", "robot", "press", "units")):
             return None
-        # the cell has its own units when given (resources.units); its values were read with the
-        # document's, so rescale them once here
+        # the cell's own units (resources.units) were applied while reading it (_CellMap)
         units = v.get("units") or {}
-        k_len = LENGTH_UNITS[units["length"]] / self.ctx.scales["length"] if units.get("length") else 1.0
-        k_mass = MASS_UNITS[units["mass"]] / self.ctx.scales["mass"] if units.get("mass") else 1.0
-        if k_len != 1.0 or k_mass != 1.0:
-            g = v["gripper"]
-            g["stroke"] *= k_len
-            g["finger"]["size"] = [x * k_len for x in g["finger"]["size"]]
-            if g["mass"]:
-                g["mass"] *= k_mass
-            v["table"]["size"] = [x * k_len for x in v["table"]["size"]]
-            if v["robot"]:
-                v["robot"]["reach"] *= k_len
-                if v["robot"]["base"]:
-                    v["robot"]["base"]["xyz"] = [x * k_len for x in v["robot"]["base"]["xyz"]]
         self.check_cell_scale(v, bool(units.get("length")))
         g = v["gripper"]
         if g["min_force"] > g["max_force"]:

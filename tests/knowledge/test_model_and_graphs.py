@@ -109,8 +109,9 @@ def test_explicit_clearance_and_length_units(tmp_path) -> None:
     mate = product.mates[0]
     assert (mate.clearance_min_m, mate.clearance_max_m) == pytest.approx((1e-4, 3e-4), rel=1e-12)
     assert product.part("block").geometry.primitives[0].size_m == pytest.approx((0.6, 0.6, 0.3))
-    # in metres its table is 600 m long: refused with the limit, in the file's unit
-    path.write_text(text.replace("length: cm", "length: m"))
+    # in metres, with the cell in the document's unit, its table is 600 m long: refused with the
+    # limit, in the file's unit
+    path.write_text(text.replace("length: cm", "length: m").replace("  units: {length: mm, mass: g}\n", ""))
     with pytest.raises(ProductError, match=r"p.yaml:28:18: resources.table.size\[0\]: expected a "
                        r"length within \+-100 m, found 600 m"):
         load_product(path)
