@@ -59,5 +59,5 @@ def _rgb(values: Any) -> tuple[float, float, float]:
     return (r, g, b)
 
 
-def _gpa(value: object) -> float | None:
+def _gpa(value: Any) -> float | None:
     return None if value is None else float(value) * 1e9

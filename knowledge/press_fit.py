@@ -262,14 +262,17 @@ def predict_press_fit(mate: Mate, diameter_m: float, engaged_length_m: float,
                                 "elastic_modulus_gpa/poisson_ratio: expected both to predict the "
                                 "press force")
     assert hub_material is not None and male_material is not None
+    E_hub, nu_hub = hub_material.elastic_modulus_Pa, hub_material.poisson_ratio
+    E_male, nu_male = male_material.elastic_modulus_Pa, male_material.poisson_ratio
+    assert E_hub is not None and nu_hub is not None and E_male is not None and nu_male is not None
     model = clearance_model(mate, diameter_m)
     deltas = model.interference_range_m()
-    pressures = tuple(lame_pressure_Pa(dl, diameter_m, hub_outer_diameter_m, male_bore_diameter_m,
-                                       hub_material.elastic_modulus_Pa, hub_material.poisson_ratio,
-                                       male_material.elastic_modulus_Pa, male_material.poisson_ratio)
-                      for dl in deltas)
+    p_lo, p_typ, p_hi = (lame_pressure_Pa(dl, diameter_m, hub_outer_diameter_m, male_bore_diameter_m,
+                                          E_hub, nu_hub, E_male, nu_male) for dl in deltas)
+    pressures = (p_lo, p_typ, p_hi)
     mu, mu_source = press_friction(hub_material.name, male_material.name)
-    forces = tuple(press_force_N(p, mu, diameter_m, engaged_length_m) for p in pressures)
+    f_lo, f_typ, f_hi = (press_force_N(p, mu, diameter_m, engaged_length_m) for p in pressures)
+    forces = (f_lo, f_typ, f_hi)
     return PressFit(mate.name, mate.kind, mate.fit, float(diameter_m), float(engaged_length_m),
                     float(hub_outer_diameter_m), hub_outer_source, float(male_bore_diameter_m),
                     hub_material.name, male_material.name, mu, mu_source, deltas, pressures,

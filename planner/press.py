@@ -194,7 +194,8 @@ def press_operation(product: Product, part: str, placed: Sequence[str], mass_kg:
                  or (m.hole_part == part and m.pin_part in placed_set))]
     if not fits:
         return None
-    force = tuple(sum(f.force_N[k] for f in fits) for k in range(3))
+    force = (float(sum(f.force_N[0] for f in fits)), float(sum(f.force_N[1] for f in fits)),
+             float(sum(f.force_N[2] for f in fits)))
     p_any = 1.0 - math.prod(1.0 - f.probability_interference for f in fits)
     depth = max(f.engaged_length_m for f in fits)
     names = tuple(f.mate for f in fits)

@@ -191,6 +191,7 @@ class PressRecorder:
             self._hold = self.world.add_pose_constraint(self.body, T, self.ram_force_N)
         # the ram runs on the mate axis through the seat (the press is aligned with the bore),
         # from where the robot left the part along the axis
+        assert self.t_ram_s is not None  # only called once the ram has started
         to_go = float((self.p_seated_m - self._ram_from) @ self.axis_world)
         left = max(to_go - self.ram_speed_m_s * (t - self.t_ram_s), 0.0)
         target = self.p_seated_m - self.axis_world * left

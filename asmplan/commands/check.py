@@ -60,14 +60,15 @@ def render(result: AssemblyCheck) -> str:
         lines.append(f"  {'press fit':<{w}}  {'fit':<6} {'P(interf.)':>10}  "
                      f"{'press force N (min/typ/max)':>30}  {'d mm':>6} {'L mm':>6} {'D_o mm':>7} "
                      f"{'d_i mm':>6}  mu    materials")
-        for p in result.press_fits:
-            lo, typ, hi = p.force_N
-            D_o = "inf" if not np.isfinite(p.hub_outer_diameter_m) else f"{p.hub_outer_diameter_m * 1e3:.1f}"
-            lines.append(f"  {p.mate:<{w}}  {p.fit or '-':<6} {p.probability_interference:>10.1%}  "
+        for pf in result.press_fits:
+            lo, typ, hi = pf.force_N
+            D_o = ("inf" if not np.isfinite(pf.hub_outer_diameter_m)
+                   else f"{pf.hub_outer_diameter_m * 1e3:.1f}")
+            lines.append(f"  {pf.mate:<{w}}  {pf.fit or '-':<6} {pf.probability_interference:>10.1%}  "
                          f"{_force(lo):>9} / {_force(typ):>8} / {_force(hi):>8}  "
-                         f"{p.diameter_m * 1e3:6.2f} {p.engaged_length_m * 1e3:6.2f} {D_o:>7} "
-                         f"{p.male_bore_diameter_m * 1e3:6.2f}  {p.mu:.2f}  "
-                         f"{p.male_material} in {p.hub_material}")
+                         f"{pf.diameter_m * 1e3:6.2f} {pf.engaged_length_m * 1e3:6.2f} {D_o:>7} "
+                         f"{pf.male_bore_diameter_m * 1e3:6.2f}  {pf.mu:.2f}  "
+                         f"{pf.male_material} in {pf.hub_material}")
     if result.interferences:
         for i in result.interferences:
             p = ", ".join(f"{v * 1e3:.2f}" for v in i.point_m)
