@@ -4,7 +4,8 @@
 #   bash dev.sh test [pytest options]        # the full test suite (CI runs this)
 #   bash dev.sh bench [asmplan bench options]
 # Installs what is missing: Debian's python3-venv and libosmesa6 (offscreen rendering) via
-# apt-get, and the Python packages pinned in constraints.txt. Re-runs skip what is done.
+# apt-get (for `test` also chromium, in which the report is checked), and the Python packages
+# pinned in constraints.txt. Re-runs skip what is done.
 set -euo pipefail
 cd "$(dirname "$0")"
 here=$(pwd)
@@ -76,6 +77,14 @@ case "$cmd" in
         exec "$venv/bin/asmplan" run "$@" ;;
     test)
         setup
+        # The report tests open report.html in a real headless browser (Debian's chromium).
+        if ! command -v chromium >/dev/null 2>&1; then
+            if [ "$(id -u)" = 0 ] || command -v sudo >/dev/null 2>&1; then
+                apt_install chromium || log "chromium not installed: the browser tests will be skipped"
+            else
+                log "chromium not installed (needs root): the browser tests will be skipped"
+            fi
+        fi
         exec "$venv/bin/python" -m pytest "$@" ;;
     bench)
         setup

@@ -70,6 +70,8 @@ class RunResult:
     plan: Plan | None = None
     results: PlanResults | None = None
     error: PlanningError | None = None
+    dropped_orders: list[dict[str, Any]] = field(default_factory=list)
+    """Better-ranked part orders that could not be planned, each with ``order`` and ``failure``."""
     warnings: list[str] = field(default_factory=list)
     timings_s: dict[str, float] = field(default_factory=dict)
 
@@ -153,6 +155,7 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
                                        progress=on_step,
                                        on_step=None if pipe is None else pipe.on_step)
                 result.plan = planned.plan
+                result.dropped_orders = list(planned.dropped)
                 result.warnings.extend(n for s in planned.plan.steps for n in s.notes)
             except PlanningError as exc:
                 result.error = exc
@@ -218,7 +221,7 @@ def write_outputs(result: RunResult, outdir: str | Path | OutputFolder, *, repor
                 progress("report", 0, 1, "")
             write_report(ReportInputs(result.product, result.geometry, result.sequence, result.plan,
                                       result.results, result.fidelity, result.failure,
-                                      list(result.warnings)), stage)
+                                      list(result.warnings), result.dropped_orders), stage)
             if progress is not None:
                 progress("report", 1, 1, "")
         target = folder.commit()

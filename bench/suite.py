@@ -613,7 +613,7 @@ def run_culling(result: Any | None, n_parts: int = CULLING_SIZE, seed: int = 0,
     diffs = []
     for a, b in zip(culled.steps, whole.steps, strict=True):
         if a.success != b.success or a.failed_criteria != b.failed_criteria:
-            diffs.append(f"step {a.index} ({a.part}): culled {a.success} {list(a.failed_criteria)}, "
+            diffs.append(f"step {a.index + 1} ({a.part}): culled {a.success} {list(a.failed_criteria)}, "
                          f"whole {b.success} {list(b.failed_criteria)}")
     n = sum(1 for s in culled.steps if s.simulated)
     return CullingResult(n_parts, n, t1 - t0, t2 - t1, not diffs, tuple(diffs), product=name)

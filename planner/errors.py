@@ -47,9 +47,15 @@ class CollidingPair:
         return f"{self.a} / {self.b}{depth}{')' if depth else ''}"
 
 
+def step_number(index: int | None) -> int | None:
+    """The 1-based step number people read for a 0-based step index (None stays None)."""
+    return None if index is None else index + 1
+
+
 class PlanningError(AsmplanError):
-    """Base of all planning failures. ``step`` is the step index (0-based) or None;
-    ``alternatives`` lists other part orders that were tried and how they failed."""
+    """Base of all planning failures. ``step`` is the step index (0-based) or None; messages
+    name the step as people count it, from 1 (``step_number``), as every report and table
+    does; ``alternatives`` lists other part orders that were tried and how they failed."""
 
     kind = "planning"
 
@@ -62,7 +68,7 @@ class PlanningError(AsmplanError):
     def evidence(self) -> dict[str, Any]:
         """JSON-safe evidence of the failure."""
         out: dict[str, Any] = {"kind": self.kind, "message": str(self), "step": self.step,
-                               "part": self.part}
+                               "step_number": step_number(self.step), "part": self.part}
         if self.alternatives:
             out["alternatives"] = list(self.alternatives)
         return out
@@ -81,7 +87,7 @@ class StartInCollisionError(PlanningError):
         self.where = where
         listed = "; ".join(str(p) for p in self.pairs[:4])
         more = f" and {len(self.pairs) - 4} more" if len(self.pairs) > 4 else ""
-        who = f'step {step} (part "{part}")' if step is not None else "the initial layout"
+        who = f'step {step_number(step)} (part "{part}")' if step is not None else "the initial layout"
         super().__init__(f"{who}: in collision at the {where}: {listed}{more}", step, part)
 
     def evidence(self) -> dict[str, Any]:
@@ -104,7 +110,7 @@ class NoPathError(PlanningError):
         self.partial_path = np.asarray(partial_path, dtype=float).reshape(-1, 4, 4)
         self.reason = reason
         self.pairs = tuple(pairs)
-        super().__init__(f'step {step} (part "{part}"): no collision-free path: {reason}',
+        super().__init__(f'step {step_number(step)} (part "{part}"): no collision-free path: {reason}',
                          step, part)
 
     def evidence(self) -> dict[str, Any]:
@@ -134,7 +140,7 @@ class InsertionBlockedError(PlanningError):
         self.segment = segment
         p = self.T_world_part[:3, 3] * 1e3
         super().__init__(
-            f'step {step} (part "{part}"): {segment} blocked by "{obstacle}": the part hits it '
+            f'step {step_number(step)} (part "{part}"): {segment} blocked by "{obstacle}": the part hits it '
             f"{self.to_seat_m * 1e3:.2f} mm before its seated pose along the mate axis, at "
             f"[{p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}] mm"
             + (f"; contacts: {'; '.join(str(c) for c in self.pairs[:3])}" if self.pairs else ""),
@@ -156,7 +162,7 @@ class NoGraspError(PlanningError):
         self.reasons = tuple(reasons)
         shown = "; ".join(self.reasons[:5])
         more = f" (and {len(self.reasons) - 5} more)" if len(self.reasons) > 5 else ""
-        where = f'step {step} (part "{part}")' if step is not None else f'part "{part}"'
+        where = f'step {step_number(step)} (part "{part}")' if step is not None else f'part "{part}"'
         super().__init__(f"{where}: no feasible grasp: {shown}{more}", step, part)
 
     def evidence(self) -> dict[str, Any]:
@@ -187,7 +193,7 @@ class GripInfeasibleError(PlanningError):
         self.mu = float(mu)
         self.acceleration_m_s2 = float(acceleration_m_s2)
         self.safety_factor = float(safety_factor)
-        where = f'step {step} (part "{part}")' if step is not None else f'part "{part}"'
+        where = f'step {step_number(step)} (part "{part}")' if step is not None else f'part "{part}"'
         super().__init__(
             f"{where}: grip infeasible: needs {self.required_N:.2f} N per finger "
             f"(= {self.safety_factor:g} x {self.mass_kg:.4f} kg x (9.81 + "

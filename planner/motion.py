@@ -119,6 +119,7 @@ class PlanResult:
     step_times: tuple[StepTiming, ...]
     total_s: float
     geometry_s: float = 0.0
+    dropped: tuple[dict[str, Any], ...] = ()  # better-ranked orders that failed: order, note, failure
 
 
 class _GraspFailed(Exception):

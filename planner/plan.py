@@ -386,7 +386,7 @@ class Step:
 
     def __post_init__(self) -> None:
         if self.kind not in ("fixture", "insert", "place"):
-            raise ValueError(f"step {self.index}: kind expected fixture, insert or place, "
+            raise ValueError(f"step {self.index + 1}: kind expected fixture, insert or place, "
                              f"found {self.kind!r}")
         object.__setattr__(self, "T_world_start", _pose(self.T_world_start, "T_world_start"))
         object.__setattr__(self, "T_world_final", _pose(self.T_world_final, "T_world_final"))
@@ -403,7 +403,7 @@ class Step:
             p.setflags(write=False)
             object.__setattr__(self, "path_T_world_gripper", p)
         if self.kind != "fixture" and (self.grasp is None or self.trajectory is None):
-            raise ValueError(f"step {self.index} ({self.part}): a {self.kind} step needs a "
+            raise ValueError(f"step {self.index + 1} ({self.part}): a {self.kind} step needs a "
                              "grasp and a trajectory, found none")
         if self.arm is not None and (self.trajectory is None
                                      or len(self.arm.q_rad) != len(self.trajectory.t_s)):

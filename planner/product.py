@@ -111,7 +111,8 @@ def plan_product(product: Product, geometry: ProductGeometry,
         except PlanningError as exc:
             failures.append((choice, exc))
             continue
-        return PlanResult(plan, times, time.perf_counter() - t0, geometry_s)
+        return PlanResult(plan, times, time.perf_counter() - t0, geometry_s, tuple(
+            {"order": list(c.order), "note": c.note, "failure": str(e)} for c, e in failures))
     if not failures:
         raise ValueError("sequences: expected at least one order to plan, found none")
     first = failures[0][1]

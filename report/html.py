@@ -10,12 +10,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import jinja2
+import numpy as np
 
 from .. import __version__
 from ..fileio import atomic_write_text
 from ..knowledge.model import Product
 from ..planner.plan import Plan
 from . import plots
+from .fits import unresolved_fits
 from .views import Views
 
 if TYPE_CHECKING:
@@ -35,6 +37,8 @@ class ReportInputs:
     fidelity: Any | None = None
     failure: str = ""
     warnings: list[str] = field(default_factory=list)
+    dropped_orders: list[dict[str, Any]] = field(default_factory=list)
+    """Better-ranked orders that could not be planned: ``order`` and ``failure`` each."""
 
 
 def _fmt(value: float | None, scale: float = 1.0, digits: int = 2) -> str:
@@ -87,51 +91,227 @@ def _sequence_block(inp: ReportInputs) -> dict[str, Any] | None:
         if inp.product.precedence.base:
             edges.insert(0, {"before": inp.product.precedence.base, "after": "every other part",
                              "kinds": "base", "reason": "declared the base part"})
-    return {"order": order, "note": note, "count": count, "edges": edges}
+    return {"order": order, "note": note, "count": count, "edges": edges,
+            "dropped": inp.dropped_orders}
+
+
+def step_number(index: int) -> int:
+    """The number a person reads for the step with 0-based ``index`` (1-based everywhere)."""
+    return index + 1
+
+
+def _margin_row(name: str, value: float | None, limit: float | None, unit: str, scale: float,
+                digits: int, note: str = "", kind: str = "max") -> dict[str, Any]:
+    """value vs limit with the margin left (limit - value for an upper limit, value - limit
+    for a lower one) in the unit and as a percentage of the limit."""
+    ok = None
+    margin = pct = "–"
+    fraction = math.inf  # margin left as a fraction of the limit (for the tightest one)
+    if value is not None and limit is not None and math.isfinite(value) and math.isfinite(limit):
+        left = (limit - value) if kind == "max" else (value - limit)
+        ok = left >= 0
+        margin = f"{left * scale:+.{digits}f}"
+        if limit:
+            fraction = left / limit
+            pct = f"{100 * fraction:+.0f} %"
+    return {"name": name, "value": _fmt(value, scale, digits), "limit": _fmt(limit, scale, digits),
+            "unit": unit, "margin": margin, "pct": pct, "ok": ok, "note": note,
+            "fraction": fraction}
+
+
+def _margins(step: Any, res: Any, gripper: Any) -> list[dict[str, Any]]:
+    """Each success criterion of a step as value vs limit and margin (the report's answer to
+    "how close to failing?"), plus the clamp force vs what is needed and the gripper rating."""
+    rows = []
+    crit = res.criteria if res is not None else {}
+    out = res.outcome if res is not None else None
+
+    def c(key: str) -> tuple[float | None, float | None]:
+        r = crit.get(key)
+        return (None, None) if r is None else (float(r["value"]), float(r["limit"]))
+
+    if out is not None:
+        rows.append(_margin_row("final position error", *c("position"), "mm", 1e3, 3))
+        if "insertion_depth" in crit:
+            rows.append(_margin_row("remaining insertion depth", *c("insertion_depth"), "mm",
+                                    1e3, 3))
+        rows.append(_margin_row("final tilt", *c("angle"), "deg", 180 / math.pi, 2))
+        rows.append(_margin_row("slip in the fingers", *c("slip"), "mm", 1e3, 3))
+        rows.append(_margin_row("rotational slip", *c("rotational_slip"), "deg", 180 / math.pi, 2))
+        rows.append(_margin_row("peak insertion force", *c("insertion_force"), "N", 1.0, 2))
+        rows.append(_margin_row("contact penetration", *c("penetration"), "mm", 1e3, 3,
+                                "deeper: the solver could not resolve the contact"))
+    clamp = step.clamp
+    if clamp is not None:
+        rows.append(_margin_row("commanded clamp force vs needed", clamp.commanded_N,
+                                clamp.translational_N, "N", 1.0, 2,
+                                f"needed m(g+a)/(2 mu) = {clamp.translational_N:.2f} N; commanded "
+                                f"with safety factor {clamp.safety_factor:g}", kind="min"))
+        rows.append(_margin_row("commanded clamp force vs rating", clamp.commanded_N,
+                                clamp.limit_N, "N", 1.0, 2, clamp.limit_source))
+        if out is not None:
+            rows.append(_margin_row("peak simulated clamp force vs rating",
+                                    out.peak_clamp_force_N, gripper.max_force_N, "N", 1.0, 2,
+                                    "gripper max_force"))
+    return rows
+
+
+def _process_sheet(inp: ReportInputs, step: Any) -> dict[str, Any]:
+    """One table per step a cell engineer can hand on: what, from where to where, how held,
+    how hard, how fast, and each phase's duration and clamp force."""
+    product = inp.product
+    rows: list[tuple[str, str]] = [("part", step.part), ("operation", step.kind),
+                                   ("pick from", product.part(step.part).start_location
+                                    if step.kind != "fixture" else "fixture")]
+    mass = inp.geometry.mass_properties(step.part).mass_kg
+    rows.append(("mass", f"{mass * 1e3:.1f} g"))
+    for m in (mm for mm in product.mates if mm.name in step.mates):
+        rows.append((f"mate {m.name}",
+                     f"{m.pin_part}.{m.pin_feature} in {m.hole_part}.{m.hole_feature}, "
+                     f"{m.fit or 'explicit'}, diametral clearance {m.clearance_min_m * 1e3:+.3f} "
+                     f"to {m.clearance_max_m * 1e3:+.3f} mm"))
+    if step.insertion_length_m > 0:
+        d = step.insertion_direction
+        rows.append(("insertion", f"{step.insertion_length_m * 1e3:.1f} mm along "
+                     f"({d[0]:+.2f}, {d[1]:+.2f}, {d[2]:+.2f}) at "
+                     f"{product.process.insertion_speed_m_s * 1e3:.0f} mm/s"))
+    target = step.T_world_final[:3, 3] * 1e3
+    rows.append(("target position", f"({target[0]:.1f}, {target[1]:.1f}, {target[2]:.1f}) mm"))
+    if step.grasp is not None:
+        g = step.grasp
+        rows.append(("grasp", f"{g.source}, width {g.width_m * 1e3:.1f} mm, opened to "
+                     f"{g.open_width_m * 1e3:.1f} mm, {g.com_offset_m * 1e3:.1f} mm from the "
+                     "centre of mass"))
+    if step.clamp is not None:
+        rows.append(("clamp force per finger", f"{step.clamp.commanded_N:.2f} N (needed "
+                     f"{step.clamp.translational_N:.2f} N, rating {step.clamp.limit_N:.0f} N)"))
+    rows.append(("speed, acceleration", f"{product.process.max_speed_m_s * 1e3:.0f} mm/s, "
+                 f"{product.process.max_acceleration_m_s2:.1f} m/s²"))
+    phases = []
+    traj = step.trajectory
+    if traj is not None:
+        t = np.asarray(traj.t_s)
+        f = np.asarray(traj.clamp_force_N)
+        for ph in traj.phases:
+            mask = (t >= ph.t_start_s) & (t <= ph.t_end_s)
+            force = f[mask]
+            f0, f1 = (float(force[0]), float(force[-1])) if force.size else (math.nan, math.nan)
+            phases.append({"name": ph.name, "start": f"{ph.t_start_s - t[0]:.2f}",
+                           "duration": f"{ph.t_end_s - ph.t_start_s:.2f}",
+                           "force": ("–" if not force.size else f"{f0:.2f}" if abs(f1 - f0) < 1e-9
+                                     else f"{f0:.2f} → {f1:.2f}")})
+    return {"rows": rows, "phases": phases}
+
+
+def _mate_steps(inp: ReportInputs) -> dict[str, int]:
+    """The step (0-based index) that makes each mate: the later of its two parts."""
+    if inp.plan is None:
+        return {}
+    order = {s.part: s.index for s in inp.plan.steps}
+    return {m.name: max(order.get(m.pin_part, -1), order.get(m.hole_part, -1))
+            for m in inp.product.mates}
+
+
+_CLEARANCE_NOTE = "is below this fidelity's smallest resolvable clearance"
+
+
+def _step_notes(notes: list[str], mates: list[str], unresolved: list[dict[str, Any]]) -> list[str]:
+    """A step's notes once each; the per-scene clearance notes (which do not name the mate)
+    are replaced by one line naming the mates this step makes that the preset cannot resolve."""
+    out = [n for n in dict.fromkeys(notes) if _CLEARANCE_NOTE not in n]
+    mine = [u for u in unresolved if u["mate"] in mates]
+    if mine:
+        listed = ", ".join(f"{u['mate']} ({u['fit']}, {u['clearance_um']:.0f} µm)" for u in mine)
+        out.insert(0, f"This step makes {listed}: below the preset's resolution "
+                      f"({mine[0]['resolution_um']:.0f} µm), see Fits the preset cannot resolve.")
+    return out
+
+
+def _failure_caption(res: Any) -> str:
+    o = res.outcome
+    if o.success:
+        return ""
+    return "; ".join(o.reasons)
 
 
 # Complexity above C (radon): one report row per step, each field formatted where it is shown (absent
 # values as '-').
-def _step_rows(inp: ReportInputs, views: Views | None, folder: Path) -> list[dict[str, Any]]:
+def _step_rows(inp: ReportInputs, views: Views | None, folder: Path,
+               unresolved: list[dict[str, Any]]) -> list[dict[str, Any]]:
     if inp.plan is None:
         return []
     gripper = inp.product.resources.gripper
     results = {r.index: r for r in inp.results.steps} if inp.results is not None else {}
     rows = []
     for step in inp.plan.steps:
+        n = step_number(step.index)
         res = results.get(step.index)
         outcome = res.outcome if res is not None else None
         clamp = step.clamp
         grip_limit = clamp.limit_N if clamp is not None else gripper.max_force_N
         cycle = step.cycle_time_s if step.trajectory is not None else None
         row: dict[str, Any] = {
-            "index": step.index, "part": step.part, "kind": step.kind, "cycle": _fmt(cycle),
-            "commanded": _fmt(clamp.commanded_N if clamp else None),
-            "slip_limit": _fmt(clamp.slip_limit_N if clamp else None),
-            "grip_limit": _fmt(grip_limit if clamp else None),
-            "peak_clamp": _fmt(outcome.peak_clamp_force_N if outcome else None),
-            "peak_insertion": _fmt(outcome.peak_insertion_force_N if outcome else None),
-            "final_error": _fmt(outcome.final_position_error_m if outcome else None, 1e3, 3),
+            "index": step.index, "number": n, "part": step.part, "kind": step.kind,
+            "cycle": _fmt(cycle), "cycle_s": cycle or 0.0,
+            "mates": ", ".join(step.mates) or "–",
             "success": None if outcome is None else bool(outcome.success),
             "reasons": "; ".join(outcome.reasons) if outcome is not None else "",
-            "views": {}, "plots": {}, "notes": [*_press_notes(step, res), *step.notes,
-                                                *(res.warnings if res is not None else ())],
-            "summary": "",
+            "views": [], "plots": {},
+            "notes": [*_press_notes(step, res),
+                      *_step_notes([*step.notes, *(res.warnings if res is not None else ())],
+                                   list(step.mates), unresolved)],
+            "summary": "", "margins": _margins(step, res, gripper),
+            "sheet": _process_sheet(inp, step),
         }
+        tight = [m for m in row["margins"] if m["ok"] is not None]
+        if tight:
+            worst = min(tight, key=lambda m: m["fraction"])
+            row["tightest"] = f"{worst['name']} ({worst['margin']} {worst['unit']}, {worst['pct']})"
+        else:
+            row["tightest"] = "–"
         if step.kind == "fixture":
             row["summary"] = "Held by the fixture from the start; not handled by the robot."
+        base = f"step{n:02d}"
         if views is not None and step.kind != "fixture":
-            row["views"] = views.render_step(inp.plan, step, folder)
+            name = f"{base}-path.png"
+            views.path_view(inp.plan, step, folder / name)
+            row["views"].append({"src": name, "kind": "path", "caption":
+                                 f"planned path of {step.part}: pick (translucent) → transport "
+                                 "(blue) → insertion (red) → target"})
+            failed = outcome is not None and not outcome.success
+            rec = res.record if res is not None else None
+            placed = {s.part: s.T_world_final for s in inp.plan.steps if s.index < step.index}
+            partners = [(p, placed[p]) for m in inp.product.mates if m.name in step.mates
+                        for p in (m.pin_part, m.hole_part) if p in placed]
+            partners = list(dict(partners).items())
+            if rec is not None and rec.n_ticks > 0 and np.all(np.isfinite(rec.T_world_part[-1])):
+                T_end, where = rec.T_world_part[-1], "simulated end of the step"
+            else:
+                T_end, where = step.T_world_final, "planned target"
+            name = f"{base}-section.png"
+            _, cut = views.section_view(step, T_end, folder / name, partners)
+            caption = f"{cut}, {where}"
+            if failed:
+                caption = (f"FAILED, this is where {step.part} ended: {_failure_caption(res)} "
+                           f"({cut})")
+            row["views"].append({"src": name, "kind": "section", "caption": caption})
+            if rec is not None and rec.n_ticks > 1:
+                name = f"{base}-animation.png"
+                views.animation(inp.plan, step, rec, folder / name)
+                row["views"].append({"src": name, "kind": "animation", "caption":
+                                     ("simulated step (animated; " +
+                                      ("FAILED: " + _failure_caption(res) if failed else
+                                       "part and gripper as simulated") + ")")})
         if res is not None and res.record is not None and res.record.n_ticks > 1:
             rec = res.record
-            title = f"step {step.index}: {step.part}"
-            name = f"step{step.index:02d}-clamp-force.png"
+            title = f"step {n}: {step.part}"
+            name = f"{base}-clamp-force.png"
             plots.clamp_force_plot(rec, folder / name, title=title,
                                    slip_threshold_N=clamp.slip_limit_N if clamp else None,
                                    grip_limit_N=grip_limit if clamp else None)
             row["plots"]["clamp force: commanded vs simulated"] = name
             if step.insertion_length_m > 0 and math.isfinite(float(rec.axial_error_m[-1])):
-                name = f"step{step.index:02d}-insertion.png"
+                name = f"{base}-insertion.png"
                 plots.insertion_plot(rec, folder / name, target_depth_m=step.insertion_length_m,
                                      title=title)
                 row["plots"]["insertion depth and contact force"] = name
@@ -155,7 +335,7 @@ def _arm_block(inp: ReportInputs) -> dict[str, Any] | None:
         if s.arm is None or s.trajectory is None:
             continue
         slowed = ", ".join(f"{n} x{k:.2f}" for n, k in s.arm.phase_time_scale if k > 1.0 + 1e-6)
-        rows.append({"index": s.index, "part": s.part, "transfer": _fmt(s.arm.transfer_s),
+        rows.append({"index": step_number(s.index), "part": s.part, "transfer": _fmt(s.arm.transfer_s),
                      "trajectory": _fmt(s.trajectory.duration_s), "cycle": _fmt(s.cycle_time_s),
                      "branch": s.arm.branch,
                      "manipulability": _fmt(s.arm.min_manipulability_ratio, 100.0, 1),
@@ -188,7 +368,12 @@ def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True)
     images = {"assembled": "", "exploded": ""}
     if views is not None:
         images["assembled"], images["exploded"] = views.render_product(folder)
-    steps = _step_rows(inp, views, folder)
+    unresolved = unresolved_fits(inp.product, inp.fidelity) if inp.results is not None else []
+    mate_steps = _mate_steps(inp)
+    for u in unresolved:
+        k = mate_steps.get(u["mate"])
+        u["step"] = "–" if k is None or k < 0 else str(step_number(k))
+    steps = _step_rows(inp, views, folder, unresolved)
     arm = _arm_block(inp)
     if arm is not None and render_images:
         from ..planner.arm import reach_facts
@@ -198,6 +383,16 @@ def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True)
         shoulder, reach = reach_facts(robot)
         plots.reach_plot(inp.product, inp.plan, shoulder, reach, folder / "cell-reach.png")
         arm["reach_image"] = "cell-reach.png"
+    story = []
+    if views is not None and inp.plan is not None:
+        story = [{"number": step_number(k), "part": part, "src": src}
+                 for k, part, src in views.storyboard(inp.plan, folder)]
+    graph = ""
+    if inp.sequence is not None:
+        graph = "precedence.png"
+        block = _sequence_block(inp)
+        plots.precedence_graph_plot(inp.sequence.precedence, folder / graph,
+                                    order=block["order"] if block is not None else ())
     success = (inp.results is not None and inp.results.success and not inp.failure)
     if inp.failure:
         verdict = "no plan"
@@ -205,14 +400,21 @@ def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True)
         verdict = "not simulated"
     else:
         failed = [s for s in steps if s["success"] is False]
-        verdict = f"{len(failed)} step(s) fail" if failed else "every step succeeds"
+        verdict = (f"step(s) {', '.join(str(s['number']) for s in failed)} fail" if failed
+                   else "every step succeeds")
+    cycle_total = sum(s["cycle_s"] for s in steps)
+    # run-level warnings: the unresolved-fit paragraphs become one table (one row per mate)
+    covered = {u["mate"] for u in unresolved}
+    warnings = [w for w in inp.warnings
+                if not any(w.startswith(f"mate {m} (") for m in covered)]
     env = jinja2.Environment(loader=jinja2.PackageLoader("asmplan.report", "templates"),
                              autoescape=jinja2.select_autoescape(["html", "j2"]),
                              undefined=jinja2.StrictUndefined, keep_trailing_newline=True)
     html = env.get_template("report.html.j2").render(
         product=inp.product, source=str(inp.product.source), images=images,
         parts=_parts_rows(inp), mates=_mates_rows(inp.product), sequence=_sequence_block(inp),
-        steps=steps, arm=arm, fidelity=_fidelity_block(inp.fidelity), warnings=inp.warnings,
+        steps=steps, arm=arm, fidelity=_fidelity_block(inp.fidelity), warnings=warnings,
+        unresolved=unresolved, story=story, graph=graph, cycle_total=f"{cycle_total:.2f}",
         failure=inp.failure, success=success, verdict=verdict, version=__version__)
     return atomic_write_text(folder / "report.html", html)
 

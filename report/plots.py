@@ -42,7 +42,8 @@ def _save(fig, path: str | Path) -> Path:
 
 
 def _phase_bands(ax, record: StepRecord) -> None:
-    """Shade each phase span and label it at the top of the axes."""
+    """Shade each phase span and label every one at the top of the axes (names of narrow
+    spans are written vertically inside the axes so that none is left out)."""
     t = record.t_s
     if t.size == 0:
         return
@@ -55,9 +56,12 @@ def _phase_bands(ax, record: StepRecord) -> None:
         t0 = t[s]
         t1 = t[e] if e < idx.size else t[-1]
         ax.axvspan(t0, t1, color=PHASE_COLORS.get(name, "#f4f4f4"), zorder=0, lw=0)
-        if (t1 - t0) / total >= 0.06:  # label only spans wide enough to hold the name
+        if (t1 - t0) / total >= 0.06:
             ax.text(0.5 * (t0 + t1), 1.0, name, transform=ax.get_xaxis_transform(), ha="center",
                     va="bottom", fontsize=7, color="#555555")
+        else:  # too narrow for a horizontal name: write it vertically inside the band
+            ax.text(0.5 * (t0 + t1), 0.97, name, transform=ax.get_xaxis_transform(),
+                    ha="center", va="top", rotation=90, fontsize=6.5, color="#555555")
 
 
 def clamp_force_plot(record: StepRecord, path: str | Path, *, title: str = "",
@@ -101,25 +105,104 @@ def clamp_force_plot(record: StepRecord, path: str | Path, *, title: str = "",
     return _save(fig, path)
 
 
+def meaningful_depth_mm(record: StepRecord, target_depth_m: float, near_m: float = 5e-3
+                        ) -> np.ndarray:
+    """Insertion depth per tick, mm, NaN where it is not a depth: before the part, lowered
+    towards the hole, first comes within ``near_m`` of the mouth (on the tray, lifted and
+    carried, the distance to the target along the mate axis is a distance, not a depth)."""
+    depth_mm = (target_depth_m - record.axial_error_m) * 1e3
+    late = np.isin(record.phase_index, [i for i, n in enumerate(record.phase_names)
+                                        if n in ("lower", "insert", "release", "retreat")])
+    near = late & (depth_mm >= -near_m * 1e3) & (depth_mm <= (target_depth_m + near_m) * 1e3)
+    if near.any():
+        first = int(np.flatnonzero(near)[0])
+        near[first:] = late[first:]
+    return np.where(near, depth_mm, np.nan)
+
+
 def insertion_plot(record: StepRecord, path: str | Path, *, target_depth_m: float,
-                   title: str = "") -> Path:
-    """Insertion depth (mm) and contact force on the part (N) over time, on twin axes."""
+                   title: str = "", near_m: float = 5e-3) -> Path:
+    """Insertion depth (mm) and contact force on the part (N) over time, on twin axes.
+
+    Depth is drawn only where it means something: from the moment the part is within
+    ``near_m`` of the hole's mouth (depth >= -near_m) during "lower"/"insert" and after; while
+    the part is on the tray or carried, the distance to the target along the mate axis is not
+    a depth and is left out (the path picture shows where the part is then).
+    """
     fig, ax = _figure()
     _phase_bands(ax, record)
-    depth_mm = (target_depth_m - record.axial_error_m) * 1e3
     force = np.linalg.norm(record.external_force_N, axis=1)
-    ax.plot(record.t_s, depth_mm, color="#2ca02c", lw=1.5, label="insertion depth")
-    ax.axhline(target_depth_m * 1e3, color="#2ca02c", ls=":", lw=1.0, label="seated")
+    shown = meaningful_depth_mm(record, target_depth_m, near_m)
+    ax.plot(record.t_s, shown, color="#2ca02c", lw=1.5,
+            label=f"insertion depth (shown from {near_m * 1e3:g} mm above the mouth)")
+    ax.axhline(target_depth_m * 1e3, color="#2ca02c", ls=":", lw=1.0,
+               label=f"seated ({target_depth_m * 1e3:.1f} mm)")
+    ax.axhline(0.0, color="#888888", ls="-", lw=0.6)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("insertion depth [mm]", color="#2ca02c")
+    ax.set_ylim(-near_m * 1e3 - 0.5, target_depth_m * 1e3 * 1.15 + 0.5)
     ax2 = ax.twinx()
     ax2.plot(record.t_s, force, color="#9467bd", lw=0.9, label="contact force")
     ax2.set_ylabel("contact force on part [N]", color="#9467bd")
     ax.set_xlim(record.t_s[0], record.t_s[-1])
     lines = ax.get_lines() + ax2.get_lines()
-    ax.legend(lines, [ln.get_label() for ln in lines], loc="upper left", fontsize=7, framealpha=0.9)
+    lines = [ln for ln in lines if not ln.get_label().startswith("_")]
+    ax.legend(lines, [ln.get_label() for ln in lines], loc="center left", fontsize=7,
+              framealpha=0.9)
     if title:
         ax.set_title(title, fontsize=9, pad=14)
+    return _save(fig, path)
+
+
+def precedence_graph_plot(graph: Any, path: str | Path, *, order: Sequence[str] = ()) -> Path:
+    """The precedence graph drawn in layers (a part below every part it must follow), each
+    edge coloured by its origin (declared, geometry, stability, base); implied edges (those
+    that follow from others) are left out of the drawing, not out of the table.
+
+    Parameters
+    ----------
+    graph : networkx.DiGraph
+        Nodes are parts; an edge ``u -> v`` (``u`` before ``v``) carries ``origins``, a list
+        of dicts with ``kind`` and ``reason``.
+    order : the planned order, to place parts of one layer left to right.
+    """
+    import networkx as nx
+
+    colors = {"declared": "#1f77b4", "rule": "#1f77b4", "geometry": "#d62728",
+              "stability": "#2ca02c", "base": "#7f7f7f", "mate": "#9467bd"}
+    fig, ax = _figure(7.5, 3.4)
+    ax.axis("off")
+    g = nx.DiGraph(graph)
+    rank = {n: i for i, n in enumerate(order)}
+    layers = list(nx.topological_generations(g)) if nx.is_directed_acyclic_graph(g) else [list(g)]
+    pos = {}
+    for y, layer in enumerate(layers):
+        layer = sorted(layer, key=lambda n: (rank.get(n, 1 << 30), str(n)))
+        for x, n in enumerate(layer):
+            pos[n] = (x - (len(layer) - 1) / 2.0, -float(y))
+    drawn = nx.transitive_reduction(g) if nx.is_directed_acyclic_graph(g) else g
+    used: set[str] = set()
+    for u, v in drawn.edges():
+        kinds = sorted({o.get("kind", "?") for o in g.edges[u, v].get("origins", [])}
+                       - ({"base"} if len(g.edges[u, v].get("origins", [])) > 1 else set()))
+        kind = kinds[0] if kinds else "base"
+        used.update(kinds)
+        ax.annotate("", xy=pos[v], xytext=pos[u],
+                    arrowprops={"arrowstyle": "-|>", "color": colors.get(kind, "#444444"),
+                                "lw": 1.4, "shrinkA": 16, "shrinkB": 16})
+        mx, my = 0.5 * (pos[u][0] + pos[v][0]), 0.5 * (pos[u][1] + pos[v][1])
+        ax.text(mx, my, ", ".join(kinds), fontsize=6.5, ha="center", va="center",
+                color=colors.get(kind, "#444444"),
+                bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.85})
+    for n, (x, y) in pos.items():
+        ax.text(x, y, str(n), ha="center", va="center", fontsize=8.5,
+                bbox={"boxstyle": "round,pad=0.35", "fc": "#f5f5f5", "ec": "#555555"})
+    xs = [p[0] for p in pos.values()] or [0.0]
+    ys = [p[1] for p in pos.values()] or [0.0]
+    ax.set_xlim(min(xs) - 0.8, max(xs) + 0.8)
+    ax.set_ylim(min(ys) - 0.5, max(ys) + 0.5)
+    ax.set_title("precedence: an arrow points from a part to one that must come after it "
+                 "(implied arrows omitted)", fontsize=8)
     return _save(fig, path)
 
 
@@ -127,10 +210,25 @@ _UNITS = {"pose_lateral_m": (1e3, "mm"), "pose_angular_rad": (180.0 / math.pi, "
 
 
 def factor_unit(factor: str) -> tuple[float, str]:
-    """Display scale and unit of a swept factor (lengths in mm, angles in degrees)."""
+    """Display scale and unit of a swept factor (clearances in µm, robot error in mm,
+    angles in degrees)."""
     if factor.startswith("clearance["):
-        return 1e3, "mm"
+        return 1e6, "µm"
     return _UNITS.get(factor, (1.0, ""))
+
+
+_LABELS = {"pose_lateral_m": "lateral robot error", "pose_angular_rad": "robot tilt error"}
+
+
+def factor_label(factor: str) -> str:
+    """A swept factor's name for people: ``clearance[m21a]`` -> ``clearance m21a``,
+    ``pose_angular_rad`` -> ``robot tilt error`` (units go beside it, not in the name)."""
+    if factor in _LABELS:
+        return _LABELS[factor]
+    if "[" in factor and factor.endswith("]"):
+        head, _, rest = factor.partition("[")
+        return f"{head} {rest[:-1]}"
+    return factor
 
 
 def sweep_step_plot(step: Any, capture_m: float | None, path: str | Path) -> Path:
@@ -164,8 +262,9 @@ def sweep_step_plot(step: Any, capture_m: float | None, path: str | Path) -> Pat
             ax.axvline(capture_m * scale, color="k", ls="--",
                        label=f"clearance/2 + chamfer {capture_m * scale:.3g} {unit}")
         r = "" if not math.isfinite(e.correlation) else f" (r = {e.correlation:+.2f})"
-        ax.set_title(f"{e.factor}{r}", fontsize=9)
-        ax.set_xlabel(f"{e.factor} [{unit}]" if unit else e.factor, fontsize=8)
+        label = factor_label(e.factor)
+        ax.set_title(f"{label}{r}", fontsize=9)
+        ax.set_xlabel(f"{label} [{unit}]" if unit else label, fontsize=8)
         ax.set_ylabel("success rate", fontsize=8)
         ax.set_ylim(-0.05, 1.05)
         ax.grid(alpha=0.3)

@@ -7,6 +7,8 @@ poses of a :class:`~asmplan.planner.plan.Plan`, and rendered offscreen by
 
 from __future__ import annotations
 
+import io
+import itertools
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, cast
@@ -22,11 +24,19 @@ from .render import Camera, SceneItem, exploded, fit_camera, render, save_png
 
 if TYPE_CHECKING:
     from ..parts.models import ProductGeometry
+    from ..sim.records import StepRecord
 
 GRIPPER_RGBA = (0.25, 0.27, 0.30, 1.0)
 ARM_RGBA = (0.92, 0.92, 0.94, 1.0)
 HELD_RGBA = (0.95, 0.55, 0.10, 1.0)
 TABLE_RGBA = (0.86, 0.84, 0.80, 1.0)
+WAITING_RGBA = (0.78, 0.78, 0.78, 1.0)  # parts still on the tray
+PATH_RGBA = (0.10, 0.35, 0.85, 1.0)  # the planned path of the part's centre (transport)
+INSERT_PATH_RGBA = (0.85, 0.10, 0.10, 1.0)  # the part's centre while it is lowered/inserted
+GHOST_ALPHA = 0.35
+ANIMATION_FRAMES = 12
+ANIMATION_SIZE_PX = (320, 240)
+STORY_SIZE_PX = (320, 240)
 VIEW_DIRECTION = (1.0, -1.3, 0.9)
 # distinct, print-friendly part colours (the held part is always HELD_RGBA)
 PALETTE = ((0.55, 0.63, 0.75), (0.45, 0.70, 0.55), (0.80, 0.45, 0.45), (0.60, 0.50, 0.78),
@@ -128,10 +138,16 @@ class Views:
         T[:3, 3] = [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, -0.002]
         return SceneItem(trimesh.creation.box(extents=size), T, TABLE_RGBA, name="table")
 
-    def shoot(self, items: list[SceneItem], path: Path, *, camera: Camera | None = None) -> Path:
+    def shoot(self, items: list[SceneItem], path: Path, *, camera: Camera | None = None,
+              labelled: bool = False) -> Path:
+        """Render ``items`` on the table top; with ``labelled``, each item's name is written
+        beside it."""
         cam = camera or fit_camera(items, direction=VIEW_DIRECTION, width_px=self.width_px,
                                    height_px=self.height_px)
         image = render([*items, self.table_item(items)], cam)
+        if labelled:
+            image = draw_labels(image, cam, list(zip([it.name for it in items],
+                                                     visible_anchors(items, cam), strict=True)))
         return save_png(image, path)
 
     def assembled_items(self, parts: Sequence[str] | None = None) -> list[SceneItem]:
@@ -148,34 +164,297 @@ class Views:
 
     def render_product(self, folder: Path) -> tuple[str, str]:
         """Assembled and exploded views; returns their file names."""
-        self.shoot(self.assembled_items(), folder / "assembled.png")
-        self.shoot(self.exploded_items(), folder / "exploded.png")
+        self.shoot(self.assembled_items(), folder / "assembled.png", labelled=True)
+        self.shoot(self.exploded_items(), folder / "exploded.png", labelled=True)
         return "assembled.png", "exploded.png"
 
-    def render_step(self, plan: Plan, step: Step, folder: Path) -> dict[str, str]:
-        """Pick, pre-insertion and inserted views of one step (with the gripper)."""
-        placed = [s.part for s in plan.steps if s.index < step.index]
-        out: dict[str, str] = {}
-        poses = {"pick": (step.T_world_start, "closed")}
-        if step.T_world_pre_insertion is not None:
-            poses["pre-insertion"] = (step.T_world_pre_insertion, "closed")
-        poses["inserted"] = (step.T_world_final, "closed")
-        # one camera for the three views of a step, framing the product and the pick spot
-        frame_items = [*self.assembled_items(placed), self.part_item(step.part, step.T_world_start),
+    # ------------------------------------------------------------------------------------
+    # What a cell engineer looks at per step: the path, the mate in section, the motion
+    # ------------------------------------------------------------------------------------
+    def waiting_items(self, plan: Plan, after_index: int) -> list[SceneItem]:
+        """Parts of steps after ``after_index`` at their start poses (on the tray), in grey."""
+        return [self.part_item(s.part, s.T_world_start, WAITING_RGBA) for s in plan.steps
+                if s.index > after_index and s.kind != "fixture"]
+
+    def placed_items(self, plan: Plan, before_index: int) -> list[SceneItem]:
+        """Parts of the steps before ``before_index`` at their assembled poses."""
+        return [self.part_item(s.part, s.T_world_final) for s in plan.steps if s.index < before_index]
+
+    def part_centre_path_m(self, step: Step) -> tuple[np.ndarray, np.ndarray]:
+        """The planned path of the held part's centre: (transport points, insertion points),
+        each (K, 3) in metres, from the step's trajectory (held phases only)."""
+        traj = step.trajectory
+        if traj is None or step.grasp is None:
+            return np.zeros((0, 3)), np.zeros((0, 3))
+        T_gripper_part = np.linalg.inv(step.grasp.T_part_gripper)
+        centre = np.r_[np.asarray(self.mesh(step.part).centroid, float), 1.0]
+        points = (traj.T_world_gripper @ T_gripper_part @ centre)[:, :3]
+        t = np.asarray(traj.t_s)
+
+        def span(*names: str) -> np.ndarray:
+            mask = np.zeros(t.shape, bool)
+            for ph in traj.phases:
+                if ph.name in names:
+                    mask |= (t >= ph.t_start_s) & (t <= ph.t_end_s)
+            return points[mask]
+
+        return span("hold", "lift", "translate"), span("lower", "insert")
+
+    def path_view(self, plan: Plan, step: Step, path: Path) -> Path:
+        """The planned path of the part's centre drawn over the cell: parts placed so far,
+        parts still waiting (grey), the part at its pick pose (translucent) and at its target,
+        the transport path (blue) and the insertion (red); every part labelled."""
+        transport, insertion = self.part_centre_path_m(step)
+        items = [*self.placed_items(plan, step.index), *self.waiting_items(plan, step.index)]
+        ghost = self.part_item(step.part, step.T_world_start, (*HELD_RGBA[:3], GHOST_ALPHA))
+        final = self.part_item(step.part, step.T_world_final, HELD_RGBA)
+        items += [final, ghost]
+        extent = float(np.linalg.norm(np.ptp(np.array([it.world_bounds_m() for it in items])
+                                             .reshape(-1, 3), axis=0)))
+        radius = max(0.004 * extent, 3e-4)
+        for pts, rgba, name in ((transport, PATH_RGBA, "path"), (insertion, INSERT_PATH_RGBA,
+                                                                   "insertion")):
+            tube = tube_mesh(pts, radius)
+            if tube is not None:
+                items.append(SceneItem(tube, np.eye(4), rgba, name=name))
+        cam = fit_camera(items, direction=VIEW_DIRECTION, width_px=self.width_px,
+                         height_px=self.height_px)
+        image = render([*items, self.table_item(items)], cam)
+        anchors = dict(zip(map(id, items), visible_anchors(items, cam), strict=True))
+        labels = [(f"{step.part} (pick)", anchors[id(ghost)]),
+                  (f"{step.part} (target)", anchors[id(final)])]
+        labels += [(it.name, anchors[id(it)]) for it in items
+                   if it.name not in (step.part, "path", "insertion")]
+        return save_png(draw_labels(image, cam, labels), path)
+
+    def section_view(self, step: Step, T_world_part: np.ndarray, path: Path,
+                     others: Sequence[tuple[str, np.ndarray]]) -> tuple[Path, str]:
+        """Close-up of the mate cut through the pin axis (gripper hidden), with the part at
+        ``T_world_part`` and its mate partners at ``others`` (name, pose). Returns the path
+        and a description of the cut."""
+        mates = [m for m in self.product.mates if m.name in step.mates]
+        direction = (np.asarray(step.insertion_direction, float)
+                     if step.insertion_direction is not None else np.array([0.0, 0.0, -1.0]))
+        direction = direction / np.linalg.norm(direction)
+        pins = []
+        for m in mates:
+            pin_part, pin_feature = ((m.pin_part, m.pin_feature) if m.pin_part == step.part
+                                     else (m.hole_part, m.hole_feature))
+            feat = self.product.feature(pin_part, pin_feature)
+            T = T_world_part if pin_part == step.part else dict(others).get(pin_part, np.eye(4))
+            pins.append(T[:3, :3] @ feat.origin_m + T[:3, 3])
+        if pins:
+            origin = pins[0]
+            across = pins[-1] - pins[0] if len(pins) > 1 else np.cross(direction, [0.3, 0.5, 0.8])
+        else:
+            origin = T_world_part[:3, 3]
+            across = np.cross(direction, [0.3, 0.5, 0.8])
+        across = across - direction * float(across @ direction)
+        normal = np.cross(direction, across / max(np.linalg.norm(across), 1e-12))
+        if normal @ np.asarray(VIEW_DIRECTION) < 0:
+            normal = -normal
+        held = self.part_item(step.part, T_world_part, HELD_RGBA)
+        items = [held, *(self.part_item(n, T) for n, T in others if n != step.part)]
+        cut = [section_item(it, origin, normal) for it in items]
+        cam = fit_camera([cut[0]], direction=normal + 0.45 * np.array([0, 0, 1.0]) + 0.25 * across
+                         / max(np.linalg.norm(across), 1e-12), margin=1.8,
+                         width_px=self.width_px, height_px=self.height_px)
+        image = render(cut, cam)
+        labels = list(zip([it.name for it in items], visible_anchors(cut, cam), strict=True))
+        names = ", ".join(m.name for m in mates) or "the part"
+        return (save_png(draw_labels(image, cam, labels), path),
+                f"section through {names} (gripper hidden)")
+
+    def animation(self, plan: Plan, step: Step, record: StepRecord, path: Path,
+                  frames: int = ANIMATION_FRAMES) -> Path:
+        """An animated PNG of the simulated step: ``frames`` evenly spaced ticks of the record
+        (part and gripper as simulated), one fixed camera, the part labelled."""
+        from PIL import Image
+
+        w, h = ANIMATION_SIZE_PX
+        static = [*self.placed_items(plan, step.index), *self.waiting_items(plan, step.index)]
+        ticks = np.unique(np.linspace(0, record.n_ticks - 1, frames).round().astype(int))
+        open_ids = [i for i, n in enumerate(record.phase_names) if n in ("approach", "retreat",
+                                                                          "release")]
+        grippers = {}
+        if step.grasp is not None:
+            for opening in ("open", "closed"):
+                half = (step.grasp.open_width_m if opening == "open" else step.grasp.width_m) / 2
+                grippers[opening] = pieces_mesh(gripper_model(self.product.resources.gripper, half))
+        frame_items = [*static, self.part_item(step.part, record.T_world_part[0]),
+                       self.part_item(step.part, record.T_world_part[-1]),
                        self.part_item(step.part, step.T_world_final)]
-        camera = fit_camera(frame_items, direction=VIEW_DIRECTION, width_px=self.width_px,
-                            height_px=self.height_px)
+        # the arm (issue 20), when the plan has one: posed at the trajectory sample nearest
+        # each frame's time, and framed at its pick, pre-insertion and inserted poses
         arm_q = self.arm_states(step)
-        for label, (T, opening) in poses.items():
-            items = [*self.assembled_items(placed), self.part_item(step.part, T, HELD_RGBA)]
-            if step.grasp is not None:
-                items.append(self.gripper_item(step, T, opening))
-            if label in arm_q:
-                items += self.arm_items(arm_q[label])
-            name = f"step{step.index:02d}-{label}.png"
-            self.shoot(items, folder / name, camera=camera)
-            out[label] = name
+        for q in arm_q.values():
+            frame_items += self.arm_items(q)
+        cam = fit_camera(frame_items, direction=VIEW_DIRECTION, width_px=w, height_px=h)
+        table = self.table_item(frame_items)
+        images = []
+        for k in ticks:
+            part = self.part_item(step.part, record.T_world_part[k], HELD_RGBA)
+            items = [*static, part, table]
+            if step.arm is not None and step.trajectory is not None:
+                j = int(np.argmin(np.abs(step.trajectory.t_s - record.t_s[k])))
+                items += self.arm_items(step.arm.q_rad[j])
+            if grippers and np.all(np.isfinite(record.T_world_gripper[k])):
+                opening = "open" if int(record.phase_index[k]) in open_ids else "closed"
+                items.append(SceneItem(grippers[opening], record.T_world_gripper[k], GRIPPER_RGBA,
+                                       name="gripper"))
+            phase = record.phase_names[int(record.phase_index[k])]
+            image = draw_labels(render(items, cam), cam, [(step.part, _centre(part))],
+                                caption=f"t = {record.t_s[k] - record.t_s[0]:.2f} s  {phase}")
+            images.append(Image.fromarray(image).quantize(colors=256,
+                                                          method=Image.Quantize.FASTOCTREE,
+                                                          dither=Image.Dither.NONE))
+        durations = [250] * (len(images) - 1) + [1200]
+        buf = io.BytesIO()
+        images[0].save(buf, format="PNG", save_all=True, append_images=images[1:],
+                       duration=durations, loop=0, compress_level=6)
+        from ..fileio import atomic_write_bytes
+
+        return atomic_write_bytes(path, buf.getvalue())
+
+    def storyboard(self, plan: Plan, folder: Path) -> list[tuple[int, str, str]]:
+        """The assembly state after each step, one small image each with a fixed camera:
+        (step index, part, file name)."""
+        w, h = ANIMATION_SIZE_PX
+        every = [*self.placed_items(plan, len(plan.steps)), *self.waiting_items(plan, -1)]
+        cam = fit_camera(every, direction=VIEW_DIRECTION, width_px=w, height_px=h)
+        table = self.table_item(every)
+        out = []
+        for step in plan.steps:
+            placed = self.placed_items(plan, step.index)
+            new = self.part_item(step.part, step.T_world_final, HELD_RGBA)
+            items = [*placed, new, *self.waiting_items(plan, step.index), table]
+            name = f"step{step.index + 1:02d}-after.png"
+            image = draw_labels(render(items, cam), cam, [(step.part, _centre(new))])
+            save_png(image, folder / name)
+            out.append((step.index, step.part, name))
         return out
+
+
+def visible_anchors(items: Sequence[SceneItem], camera: Camera) -> list[np.ndarray | None]:
+    """Per item, the pixel ``(column, row)`` of its visible area nearest that area's centroid
+    (None when it is hidden or out of view): where its label's leader should point."""
+    from .render import render_labels
+
+    seg = render_labels(items, camera)
+    out: list[np.ndarray | None] = []
+    for k in range(len(items)):
+        rows, cols = np.nonzero(seg == k)
+        if rows.size == 0:
+            out.append(None)
+            continue
+        i = int(np.argmin((rows - rows.mean()) ** 2 + (cols - cols.mean()) ** 2))
+        out.append(np.array([cols[i] + 0.5, rows[i] + 0.5]))
+    return out
+
+
+def _centre(item: SceneItem) -> np.ndarray:
+    b = item.world_bounds_m()
+    return 0.5 * (b[0] + b[1])
+
+
+def tube_mesh(points_m: np.ndarray, radius_m: float) -> trimesh.Trimesh | None:
+    """A polyline as a chain of thin cylinders (points closer than a radius are merged)."""
+    pts = np.asarray(points_m, float)
+    if len(pts) < 2:
+        return None
+    # keep the corners: a point is dropped while the path runs straight on (within ~1 deg)
+    # and is less than a radius from the last kept one (paths are mostly straight lines)
+    kept = [pts[0]]
+    for i in range(1, len(pts) - 1):
+        a, b = pts[i] - kept[-1], pts[i + 1] - pts[i]
+        na, nb = np.linalg.norm(a), np.linalg.norm(b)
+        if na < 2.0 * radius_m:
+            continue
+        if nb > 1e-12 and float(a @ b) / (na * nb) > 0.9998:
+            continue
+        kept.append(pts[i])
+    if np.linalg.norm(pts[-1] - kept[-1]) > 1e-9:
+        kept.append(pts[-1])
+    segments = [trimesh.creation.cylinder(radius=radius_m, segment=[a, b], sections=10)
+                for a, b in itertools.pairwise(kept)
+                if np.linalg.norm(b - a) > 1e-9]
+    if not segments:
+        return None
+    segments.append(trimesh.creation.icosphere(subdivisions=1, radius=2.0 * radius_m)
+                    .apply_translation(kept[-1]))
+    return trimesh.util.concatenate(segments)
+
+
+def section_item(item: SceneItem, origin_m: np.ndarray, normal: np.ndarray) -> SceneItem:
+    """The part of ``item`` behind the plane through ``origin_m`` with ``normal`` (the half
+    facing the viewer removed), as a closed mesh (manifold boolean); the whole item when the
+    cut fails or leaves nothing."""
+    T_item_world = np.linalg.inv(item.T_world_item)
+    o = T_item_world[:3, :3] @ origin_m + T_item_world[:3, 3]
+    n = T_item_world[:3, :3] @ normal
+    size = 4.0 * float(np.linalg.norm(item.mesh.extents)) + 1.0
+    box = trimesh.creation.box(extents=[size, size, size])
+    z = n / np.linalg.norm(n)
+    x = np.cross(z, [1.0, 0, 0] if abs(z[0]) < 0.9 else [0, 1.0, 0])
+    x /= np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, 0], T[:3, 1], T[:3, 2] = x, np.cross(z, x), z
+    T[:3, 3] = o - z * size / 2.0  # the box fills the half-space behind the plane
+    box.apply_transform(T)
+    try:
+        kept = item.mesh.intersection(box, engine="manifold")
+    except Exception:  # a display cut: the whole part is a fine fallback
+        return item
+    if kept is None or len(kept.faces) == 0:
+        return item
+    return SceneItem(kept, item.T_world_item, item.color_rgba, item.name)
+
+
+def draw_labels(image: np.ndarray, camera: Camera,
+                labels: Sequence[tuple[str, np.ndarray | None]], caption: str = "") -> np.ndarray:
+    """Names drawn with a leader line to their anchor, a world point (3,) projected by
+    ``camera`` or a pixel ``(column, row)`` (2,); None is skipped. Boxes are pushed apart so
+    they do not overlap; an optional caption goes in the top-left corner."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    pil = Image.fromarray(image)
+    draw = ImageDraw.Draw(pil)
+    size = max(12, camera.height_px // 28)
+    font = ImageFont.load_default(size=size)
+    taken: list[tuple[float, float, float, float]] = []
+    for text, point in labels:
+        if point is None:
+            continue
+        anchor = np.asarray(point, float)
+        if anchor.shape == (2,):  # already a pixel (column, row)
+            col, row = float(anchor[0]), float(anchor[1])
+        else:
+            try:
+                col, row = camera.project(anchor)
+            except ValueError:
+                continue
+        if not (0 <= col < camera.width_px and 0 <= row < camera.height_px):
+            continue
+        x0, t, r, b = draw.textbbox((0, 0), text, font=font)
+        tw, th = r - x0 + 8, b - t + 6
+        x = min(max(col + 14, 2), camera.width_px - tw - 2)
+        y = min(max(row - th - 14, 2), camera.height_px - th - 2)
+        for _ in range(30):
+            box = (x, y, x + tw, y + th)
+            if not any(box[0] < q[2] and q[0] < box[2] and box[1] < q[3] and q[1] < box[3]
+                       for q in taken):
+                break
+            y = y + th + 2 if y + 2 * th + 4 < camera.height_px else 2
+        taken.append((x, y, x + tw, y + th))
+        draw.line([(col, row), (x + 2, y + th / 2)], fill=(40, 40, 40), width=1)
+        draw.ellipse([col - 2, row - 2, col + 2, row + 2], fill=(40, 40, 40))
+        draw.rectangle([x, y, x + tw, y + th], fill=(255, 255, 255), outline=(90, 90, 90))
+        draw.text((x + 4 - x0, y + 3 - t), text, fill=(20, 20, 20), font=font)
+    if caption:
+        x0, t, r, b = draw.textbbox((0, 0), caption, font=font)
+        draw.rectangle([2, 2, r - x0 + 10, b - t + 8], fill=(255, 255, 255))
+        draw.text((6 - x0, 5 - t), caption, fill=(20, 20, 20), font=font)
+    return np.asarray(pil)
 
 
 def render_product(product: Product, path: str | Path, geometry: ProductGeometry, *,

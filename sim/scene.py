@@ -392,7 +392,7 @@ def step_scene(step: Step, state: AssemblyState, product: Product, geometry: Pro
     """
     index = step.index
     if step.kind == "fixture" or step.trajectory is None or step.grasp is None:
-        raise ValueError(f"step {index} ({step.part}): expected a step that moves its part, "
+        raise ValueError(f"step {index + 1} ({step.part}): expected a step that moves its part, "
                          f"found kind {step.kind!r}")
     missing = set(product.part_names) - set(state.T_world_part)
     if missing:

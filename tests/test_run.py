@@ -33,12 +33,15 @@ def test_run_writes_plan_results_and_a_report_that_shows_them(tmp_path, capsys) 
     assert code == 0, stdout
     assert "peg_in_hole: every step succeeds" in stdout
     for name in ("plan.json", "results.json", "sequence.json", "summary.json", "report.html",
-                 "assembled.png", "exploded.png", "step01-pick.png", "step01-inserted.png",
-                 "step01-clamp-force.png", "step01-insertion.png"):
+                 "assembled.png", "exploded.png", "precedence.png", "step01-after.png",
+                 "step02-after.png", "step02-path.png", "step02-section.png",
+                 "step02-animation.png", "step02-clamp-force.png", "step02-insertion.png"):
         assert (out / name).is_file(), name
     html = (out / "report.html").read_text()
-    assert "every step succeeds" in html and "Step 1: peg" in html
-    for img in ("assembled.png", "step01-clamp-force.png"):
+    # steps count from 1 (the block in its fixture is step 1), the same in files and text
+    assert "every step succeeds" in html and "Step 2: peg" in html
+    for img in ("assembled.png", "step02-clamp-force.png", "step02-path.png",
+                "step02-animation.png"):
         assert f'src="{img}"' in html
     # the assembled view shows something: many non-background pixels, varied shading
     pixels = np.asarray(Image.open(out / "assembled.png").convert("RGB"), dtype=float)

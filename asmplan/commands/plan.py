@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
+from typing import Any, TextIO
 
 from ..fileio import check_output_file
 from ..knowledge.loader import load_product
@@ -43,6 +43,34 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--level", choices=("convex", "exact"), default=d.collision_level,
                    help=f"collision model level used for planning (default {d.collision_level})")
     p.set_defaults(func=run)
+
+
+class PlanProgress:
+    """The plan stage's progress bar, saying when the planner gives an order up and plans
+    the next-ranked one (it restarts from the first step; why is printed at the end)."""
+
+    def __init__(self, progress: StageProgress, stream: TextIO) -> None:
+        self.progress = progress
+        self.stream = stream
+        self.last_k = -1
+        self.order = 1
+
+    def __call__(self, k: int, n: int, part: str, status: str) -> None:
+        if status == "start" and k < self.last_k:  # the planner moved on to the next order
+            self.order += 1
+            if self.progress.tty:
+                self.stream.write("\n")
+            self.stream.write(f"order {self.order - 1} could not be planned (why: below); "
+                              f"planning the order ranked {self.order}\n")
+        self.last_k = k
+        if status == "done":
+            self.progress("plan", k + 1, n, part)
+
+
+def dropped_lines(dropped: Any) -> list[str]:
+    """Why each better-ranked order could not be planned (one line per order)."""
+    return [f"order {k} ({' -> '.join(d['order'])}) could not be planned: {d['failure']}"
+            for k, d in enumerate(dropped, start=1)]
 
 
 def evidence_lines(evidence: dict[str, Any]) -> list[str]:
@@ -109,11 +137,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"asmplan plan: no feasible sequence: {exc}", file=sys.stderr)
             return 1
     progress = StageProgress(sys.stderr)
-
-    def on_step(k: int, n: int, part: str, status: str) -> None:
-        if status == "done":
-            progress("plan", k + 1, n, part)
-
+    on_step = PlanProgress(progress, sys.stderr)
     try:
         result = plan_product(product, geometry, settings, sequence=order, sequence_note=note,
                               sequences=choices, progress=on_step)
@@ -136,6 +160,8 @@ def run(args: argparse.Namespace) -> int:
               f"{result.plan.cycle_time_s:.2f} s; per step: " + ", ".join(
                   f"{s.part} {s.cycle_time_s:.2f} s" for s in result.plan.steps
                   if s.trajectory is not None))
+    for line in dropped_lines(result.dropped):
+        print(line)
     for s in result.plan.steps:
         for n in (s.start_note, *s.notes):
             if n and ("raised" in n or "no start pose" in n or "hint" in n

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .argtypes import add_jobs_argument, add_pose_error_argument
-from .plan import evidence_lines
+from .plan import dropped_lines, evidence_lines
 from .textout import StageProgress, format_table
 
 if TYPE_CHECKING:  # the pipeline (trimesh, scipy, pybullet) is imported when a run starts
@@ -56,7 +56,7 @@ def summary_table(result: RunResult) -> str:
         traj = step.trajectory
         cycle = f"{step.cycle_time_s:.2f}" if traj is not None else "-"
         verdict = "-" if o is None else ("ok" if o.success else "FAILED: " + "; ".join(o.reasons))
-        rows.append((str(step.index), step.part, step.kind, cycle,
+        rows.append((str(step.index + 1), step.part, step.kind, cycle,
                      f"{o.peak_clamp_force_N:.2f}" if o else "-",
                      f"{step.clamp.slip_limit_N:.2f}" if step.clamp else "-",
                      f"{o.peak_insertion_force_N:.2f}" if o else "-",
@@ -66,6 +66,21 @@ def summary_table(result: RunResult) -> str:
         table += (f"\ncycle time with the arm: {result.plan.cycle_time_s:.2f} s (joint moves "
                   "between steps included)")
     return table
+
+
+def terminal_warnings(result: RunResult) -> list[str]:
+    """The run's warnings once each, the fits the preset cannot resolve grouped into one
+    warning that names every mate (with its fit, clearance and step)."""
+    from ..report.fits import grouped_fit_warning, unresolved_fits
+
+    rows = unresolved_fits(result.product, result.fidelity) if result.results is not None else []
+    names = {r["mate"] for r in rows}
+    rest = [w for w in result.warnings if not any(w.startswith(f"mate {m} (") for m in names)]
+    order = ({s.part: s.index for s in result.plan.steps} if result.plan is not None else {})
+    mate_steps = {m.name: max(order.get(m.pin_part, -1), order.get(m.hole_part, -1))
+                  for m in result.product.mates}
+    grouped = grouped_fit_warning(rows, result.fidelity.name, mate_steps)
+    return [grouped, *rest] if grouped else rest
 
 
 def run(args: argparse.Namespace) -> int:
@@ -87,7 +102,9 @@ def run(args: argparse.Namespace) -> int:
     out = sys.stdout
     if result.plan is not None:
         print(summary_table(result), file=out)
-    for w in result.warnings:
+    for line in dropped_lines(result.dropped_orders):
+        print(line, file=out)
+    for w in terminal_warnings(result):
         print(f"warning: {w}", file=out)
     t = result.timings_s
     times = ", ".join(f"{k} {v:.1f} s" for k, v in t.items())
@@ -96,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
         for line in evidence_lines(result.failure_evidence):
             print(line, file=out)
     elif result.results is not None and not result.results.success:
-        failed = ", ".join(f"{s.index} ({s.part})" for s in result.results.failed_steps)
+        failed = ", ".join(f"{s.index + 1} ({s.part})" for s in result.results.failed_steps)
         print(f"{product.name}: step(s) {failed} fail physically at fidelity {result.fidelity.name}",
               file=out)
     else:

@@ -107,11 +107,18 @@ def run(args: argparse.Namespace) -> int:
     from ..sim.fidelity import preset
     from ..sim.pose_error import PoseError
     from ..sim.scene import PlanProductMismatchError
-    from ..sim.simulate import clearance_warnings, simulate_plan
+    from ..sim.simulate import simulate_plan
 
     fidelity = preset(args.fidelity)
-    for w in clearance_warnings(product, fidelity):  # before simulating: how to read the rest
-        print(f"warning: {w}", file=sys.stderr)
+    from ..report.fits import grouped_fit_warning, unresolved_fits
+
+    order = {s.part: s.index for s in plan.steps}
+    grouped = grouped_fit_warning(  # before simulating: how to read the rest, one warning
+        unresolved_fits(product, fidelity), fidelity.name,
+        {m.name: max(order.get(m.pin_part, -1), order.get(m.hole_part, -1))
+         for m in product.mates})
+    if grouped:
+        print(f"warning: {grouped}", file=sys.stderr)
 
     def progress(k: int, n: int, part: str, status: str) -> None:
         if status == "start":
@@ -144,7 +151,8 @@ def run(args: argparse.Namespace) -> int:
                 f"{o.peak_insertion_force_N:.2f} N, {s.wall_time_s:.1f} s)")
         print(line)
         for w in s.warnings:
-            print(f"  warning: {w}", file=sys.stderr)
+            if "below this fidelity's smallest resolvable clearance" not in w:  # named above
+                print(f"  warning: {w}", file=sys.stderr)
         if not s.success:
             print(f"asmplan simulate: step {s.index + 1} ({s.part}) failed: "
                   f"{', '.join(s.failed_criteria)}", file=sys.stderr)

@@ -231,14 +231,17 @@ def draw_sample(
     Returns
     -------
     SampleParams
+        Clearances only of the mates whose range is varied: a mate left out keeps its declared
+        fit in :func:`perturb_product` (replacing an H7/g6 by its mean clearance placed
+        symmetrically about the nominal size changes the simulated sizes by micrometres,
+        enough to turn the unperturbed peg_in_hole sample from success into a failure).
     """
     if index < 0:
         raise ValueError(f"draw_sample: expected index >= 0, found {index}")
     clear: dict[str, float] = {}
     for c in sorted(clearances, key=lambda c: c.mate):
         if "clearance" not in spec.vary or c.max_m == c.min_m:
-            clear[c.mate] = 0.5 * (c.min_m + c.max_m)
-            continue
+            continue  # not varied: the mate keeps its declared fit, as `asmplan run` has it
         rng = factor_rng(spec.seed, index, f"clearance/{c.mate}")
         if spec.clearance_distribution == "uniform":
             clear[c.mate] = float(rng.uniform(c.min_m, c.max_m))

@@ -85,12 +85,24 @@ def test_same_input_same_graph_json(capsys) -> None:
     assert {"liaison", "precedence"} <= set(data)
 
 
-def test_dot_output_names_every_part(capsys) -> None:
+def test_dot_output_is_one_graph_with_the_geometry_precedences(capsys) -> None:
     assert main(["graph", str(example_path("pinhole_station")), "--format", "dot"]) == 0
     out = capsys.readouterr().out
-    assert out.count("digraph") == 1 and out.count("graph ") >= 2
+    # one graph per call (Graphviz reads only the first graph of a file)
+    assert out.startswith('digraph "pinhole_station precedence"') and out.count("graph ") == 1
     for name in ("part1", "part2", "part3", "part4"):
         assert f'"{name}"' in out
+    # the precedences `asmplan sequence` derives from geometry are there, with their reasons
+    assert '"part2" -> "part4"' in out and "geometry: with part4 in place part2 cannot" in out
+    assert main(["graph", str(example_path("pinhole_station")), "--format", "dot",
+                 "--knowledge-only"]) == 0
+    assert "geometry:" not in capsys.readouterr().out
+    assert main(["graph", str(example_path("pinhole_station")), "--format", "dot",
+                 "--kind", "liaison"]) == 0
+    assert capsys.readouterr().out.startswith('graph "pinhole_station liaison"')
+    assert main(["graph", str(example_path("pinhole_station")), "--format", "dot",
+                 "--kind", "both"]) == 2
+    assert "one graph per call" in capsys.readouterr().err
 
 
 def test_explicit_clearance_and_length_units(tmp_path) -> None:

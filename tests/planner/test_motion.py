@@ -261,7 +261,7 @@ def test_too_heavy_part_is_a_grip_failure_with_numbers(examples, geometry_cache)
     product = examples["pinhole_station"]
     parts = dict(geometry_cache.parts(product))
     parts["part3"] = dataclasses.replace(parts["part3"], mass_kg=2.0)
-    with pytest.raises(GripInfeasibleError, match=r"step 2 \(part \"part3\"\).*needs 52\.49 N") \
+    with pytest.raises(GripInfeasibleError, match=r"step 3 \(part \"part3\"\).*needs 52\.49 N") \
             as err:
         plan_product(product, geometry_cache.geo(product), PlannerSettings(),
                      sequence=ORDERS["pinhole_station"], parts=parts)
