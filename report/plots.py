@@ -172,7 +172,7 @@ def precedence_graph_plot(graph: Any, path: str | Path, *, order: Sequence[str] 
               "stability": "#2ca02c", "base": "#7f7f7f", "mate": "#9467bd"}
     fig, ax = _figure(7.5, 3.4)
     ax.axis("off")
-    g = nx.DiGraph(graph)
+    g: nx.DiGraph[str] = nx.DiGraph(graph)
     rank = {n: i for i, n in enumerate(order)}
     layers = list(nx.topological_generations(g)) if nx.is_directed_acyclic_graph(g) else [list(g)]
     pos = {}
@@ -194,8 +194,8 @@ def precedence_graph_plot(graph: Any, path: str | Path, *, order: Sequence[str] 
         ax.text(mx, my, ", ".join(kinds), fontsize=6.5, ha="center", va="center",
                 color=colors.get(kind, "#444444"),
                 bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.85})
-    for n, (x, y) in pos.items():
-        ax.text(x, y, str(n), ha="center", va="center", fontsize=8.5,
+    for n, (px, py) in pos.items():
+        ax.text(px, py, str(n), ha="center", va="center", fontsize=8.5,
                 bbox={"boxstyle": "round,pad=0.35", "fc": "#f5f5f5", "ec": "#555555"})
     xs = [p[0] for p in pos.values()] or [0.0]
     ys = [p[1] for p in pos.values()] or [0.0]

@@ -382,7 +382,7 @@ def tube_mesh(points_m: np.ndarray, radius_m: float) -> trimesh.Trimesh | None:
         return None
     segments.append(trimesh.creation.icosphere(subdivisions=1, radius=2.0 * radius_m)
                     .apply_translation(kept[-1]))
-    return trimesh.util.concatenate(segments)
+    return cast(trimesh.Trimesh, trimesh.util.concatenate(segments))
 
 
 def section_item(item: SceneItem, origin_m: np.ndarray, normal: np.ndarray) -> SceneItem:
