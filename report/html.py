@@ -240,7 +240,6 @@ def _step_rows(inp: ReportInputs, views: Views | None, folder: Path,
                unresolved: list[dict[str, Any]]) -> list[dict[str, Any]]:
     if inp.plan is None:
         return []
-    gripper = inp.product.resources.gripper
     results = {r.index: r for r in inp.results.steps} if inp.results is not None else {}
     rows = []
     for step in inp.plan.steps:
@@ -248,6 +247,7 @@ def _step_rows(inp: ReportInputs, views: Views | None, folder: Path,
         res = results.get(step.index)
         outcome = res.outcome if res is not None else None
         clamp = step.clamp
+        gripper = inp.product.gripper_for(step.part)  # with the pads this part's step uses
         grip_limit = clamp.limit_N if clamp is not None else gripper.max_force_N
         cycle = step.cycle_time_s if step.trajectory is not None else None
         row: dict[str, Any] = {

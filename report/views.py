@@ -87,7 +87,7 @@ class Views:
         grasp = step.grasp
         assert grasp is not None
         half = (grasp.open_width_m if opening == "open" else grasp.width_m) / 2.0
-        mesh = pieces_mesh(gripper_model(self.product.resources.gripper, half))
+        mesh = pieces_mesh(gripper_model(self.product.gripper_for(step.part), half))
         return SceneItem(mesh, np.asarray(T_world_part) @ grasp.T_part_gripper, GRIPPER_RGBA,
                          name="gripper")
 
@@ -280,7 +280,8 @@ class Views:
         if step.grasp is not None:
             for opening in ("open", "closed"):
                 half = (step.grasp.open_width_m if opening == "open" else step.grasp.width_m) / 2
-                grippers[opening] = pieces_mesh(gripper_model(self.product.resources.gripper, half))
+                grippers[opening] = pieces_mesh(gripper_model(self.product.gripper_for(step.part),
+                                                                half))
         frame_items = [*static, self.part_item(step.part, record.T_world_part[0]),
                        self.part_item(step.part, record.T_world_part[-1]),
                        self.part_item(step.part, step.T_world_final)]
