@@ -710,8 +710,8 @@ class _Builder:
             self.err(("resources", "gripper", "stroke"), f"expected a gripper stroke of 1-500 mm, found "
                      f"{stroke * 1e3:.4g} mm{hint}")
         size = max(v["table"]["size"][:2])
-        if not 0.05 <= size <= 5.0:
-            self.err(("resources", "table", "size"), f"expected a table of 50 mm to 5 m, found "
+        if not 0.05 <= size <= 20.0:  # 20 m: a long transfer line (a 2,000-part tray layout is 10.6 m)
+            self.err(("resources", "table", "size"), f"expected a table of 50 mm to 20 m, found "
                      f"{size * 1e3:.4g} mm across{hint}")
 
     def check_part_ref(self, name: str, path: PathKey) -> bool:
