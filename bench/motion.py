@@ -14,6 +14,7 @@ examples); ``asmplan bench`` calls :func:`bench`.
 
 from __future__ import annotations
 
+import dataclasses
 import statistics
 import sys
 import time
@@ -103,9 +104,7 @@ def bench_product(path: str | Path, settings: PlannerSettings | None = None,
     geometry_s = time.perf_counter() - t0
     result = plan_product(product, geometry, settings, parts=parts)
     plan = result.plan
-    direct_settings = PlannerSettings(**{**settings.as_dict(), "timing": settings.timing,
-                                         "time_budget_s": direct_budget_s,
-                                         "replan_attempts": 0})
+    direct_settings = dataclasses.replace(settings, time_budget_s=direct_budget_s, replan_attempts=0)
     rows = []
     for step, timing in zip(plan.steps, result.step_times, strict=True):
         if step.kind == "fixture":
