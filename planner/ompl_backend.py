@@ -109,6 +109,15 @@ class OmplResult:
     planner: str
 
 
+
+def _simplify(ss: og.SimpleSetup, path: og.PathGeometric) -> None:
+    """Shorten a solved path in place, deterministically and bounded: drop vertices that can be
+    skipped, then merge close ones (simplifyMax would also smooth, at ~10x the validity checks)."""
+    ps = ss.getPathSimplifier()
+    ps.reduceVertices(path)
+    ps.collapseCloseVertices(path)
+    ps.reduceVertices(path)
+
 def _set_state(state: ob.SE3State, T: np.ndarray) -> None:
     q = quat_xyzw_from_matrix(T[:3, :3])
     state.setXYZ(float(T[0, 3]), float(T[1, 3]), float(T[2, 3]))
@@ -235,12 +244,7 @@ def plan_se3(
         if ss.haveSolutionPath():
             path = ss.getSolutionPath()
             if solved and simplify:
-                # deterministic and bounded: drop vertices that can be skipped, then merge
-                # close ones (simplifyMax would also smooth, at ~10x the validity checks)
-                ps = ss.getPathSimplifier()
-                ps.reduceVertices(path)
-                ps.collapseCloseVertices(path)
-                ps.reduceVertices(path)
+                _simplify(ss, path)
             poses = [_state_pose(s) for s in path.getStates()]
         elapsed = time.perf_counter() - t0
     finally:
@@ -328,10 +332,7 @@ def plan_joint(
         if ss.haveSolutionPath():
             path = ss.getSolutionPath()
             if solved:
-                ps = ss.getPathSimplifier()
-                ps.reduceVertices(path)
-                ps.collapseCloseVertices(path)
-                ps.reduceVertices(path)
+                _simplify(ss, path)
             qs = [q_of(s) for s in path.getStates()]
         elapsed = time.perf_counter() - t0
     finally:
