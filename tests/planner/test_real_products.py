@@ -307,7 +307,7 @@ def test_gear_unit_orders_the_gripper_cannot_do_rank_below_the_others_with_their
 def test_identical_parts_collapse_to_one_order():
     """beam_and_tenon: three identical posts give 6 feasible orders but one process;
     gear_unit's identical posts no longer make two fallback orders of every order."""
-    from asmplan.planner.sequence import identical_parts
+    from asmplan.planner.sequence_search import identical_parts
 
     product = load_product(PRODUCTS / "beam_and_tenon.yaml")
     assert identical_parts(product) == [("post_1", "post_2", "post_3")]
