@@ -9,10 +9,11 @@ simulator)::
     result = check_assembly(product, geometry)             # clearances and interferences
 
 Modules: ``geometry`` (shapes, fitted sizes, exact solids, mass properties), ``meshfile``
-(mesh files), ``features`` (frames, depths, checks), ``lod`` (levels of detail and their
-measurement), ``decompose`` (exact convex pieces of holed blocks), ``collision`` (the only
-FCL user), ``check`` (assembly check), ``models`` (the cache), ``pieces`` (the piece contract
-shared with PyBullet). See ``docs/geometry.md``.
+(mesh files), ``features`` (frames, depths, checks), ``lod`` (the levels of detail),
+``primitive_pieces`` (convex pieces of bodies, pins and holed primitives), ``lod_measure``
+(each level's measured error), ``decompose`` (exact convex pieces of holed blocks),
+``collision`` (the only FCL user), ``check`` (assembly check), ``models`` (the cache),
+``pieces`` (the piece contract shared with PyBullet). See ``docs/geometry.md``.
 """
 
 from __future__ import annotations
@@ -28,7 +29,8 @@ _EXPORTS = {
     "Finding": "features", "T_part_feature": "features", "check_mates": "features",
     "FeatureSizing": "geometry", "GeometryError": "geometry", "GeometrySettings": "geometry",
     "MassProperties": "geometry", "fitted_sizes": "geometry",
-    "LEVELS": "lod", "HoleClearance": "lod", "LevelReport": "lod", "bodies": "lod", "convex_sides": "lod",
+    "LEVELS": "lod", "bodies": "lod",
+    "HoleClearance": "lod_measure", "LevelReport": "lod_measure", "convex_sides": "primitive_pieces",
     "LoadedMesh": "meshfile", "MeshFileError": "meshfile", "load_mesh_file": "meshfile",
     "ProductGeometry": "models",
     "CollisionModel": "pieces", "ConvexPiece": "pieces", "LevelOfDetail": "pieces",

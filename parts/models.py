@@ -40,19 +40,17 @@ from .geometry import (
 )
 from .lod import (
     LEVELS,
-    HoleSides,
-    LevelReport,
     bodies,
     coarse_pieces,
     convex_pieces,
     exact_model,
     hole_sides,
-    measure,
-    with_errors,
 )
+from .lod_measure import LevelReport, measure, with_errors
 from .mesh import TriangleMesh
 from .meshfile import LoadedMesh, MeshFileError, load_mesh_file
 from .pieces import CollisionModel, ConvexPiece, LevelOfDetail
+from .primitive_pieces import HoleSides
 
 _T = TypeVar("_T")
 

@@ -24,18 +24,11 @@ from asmplan.parts.geometry import (
     polygon_excess,
     shape_solid,
 )
-from asmplan.parts.lod import (
-    bodies,
-    convex_pieces,
-    convex_sides,
-    effective_clearance,
-    exact_model,
-    hausdorff,
-    hole_sides,
-    model_solid,
-)
+from asmplan.parts.lod import bodies, convex_pieces, exact_model, hole_sides
+from asmplan.parts.lod_measure import effective_clearance, hausdorff, model_solid
 from asmplan.parts.models import ProductGeometry
 from asmplan.parts.pieces import CollisionModel, ConvexPiece
+from asmplan.parts.primitive_pieces import convex_sides
 
 SETTINGS = GeometrySettings()
 TOL = SETTINGS.exact_tolerance_m
