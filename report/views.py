@@ -20,7 +20,8 @@ from ..knowledge.model import Product
 from ..parts.cell import gripper_model
 from ..parts.pieces import CollisionModel
 from ..planner.plan import Plan, Step
-from .render import Camera, SceneItem, exploded, fit_camera, render, save_png
+from .camera import Camera, SceneItem, exploded, fit_camera
+from .render import render, save_png
 
 if TYPE_CHECKING:
     from ..parts.models import ProductGeometry

@@ -22,6 +22,7 @@ import trimesh
 from scipy.ndimage import binary_erosion
 from scipy.spatial import ConvexHull
 
+from asmplan.report import camera as rc
 from asmplan.report import render as rr
 
 WIDTH_PX, HEIGHT_PX, YFOV_RAD = 800, 600, 0.6
@@ -37,17 +38,17 @@ def _translation(xyz: np.ndarray) -> np.ndarray:
     return T
 
 
-def _scene() -> list[rr.SceneItem]:
+def _scene() -> list[rc.SceneItem]:
     box = trimesh.creation.box(extents=(BOX_SIZE_M,) * 3)
     cylinder = trimesh.creation.cylinder(radius=0.015, height=0.05, sections=64)
     return [
-        rr.SceneItem(box, _translation(BOX_CENTER_M), (0.9, 0.1, 0.1, 1.0), "box"),
-        rr.SceneItem(cylinder, _translation(CYLINDER_CENTER_M), (0.1, 0.2, 0.9, 1.0), "pin"),
+        rc.SceneItem(box, _translation(BOX_CENTER_M), (0.9, 0.1, 0.1, 1.0), "box"),
+        rc.SceneItem(cylinder, _translation(CYLINDER_CENTER_M), (0.1, 0.2, 0.9, 1.0), "pin"),
     ]
 
 
-def _top_camera() -> rr.Camera:
-    return rr.Camera(
+def _top_camera() -> rc.Camera:
+    return rc.Camera(
         eye_m=(0.0, 0.0, EYE_HEIGHT_M),
         target_m=(0.0, 0.0, 0.0),
         up=(0.0, 1.0, 0.0),
@@ -164,7 +165,7 @@ def test_render_mask_rejects_unknown_name():
 
 def test_rendering_twice_in_one_process_gives_identical_images(top_view):
     items, camera = _scene(), _top_camera()
-    small = rr.Camera(camera.eye_m, camera.target_m, camera.up, YFOV_RAD, 160, 120)
+    small = rc.Camera(camera.eye_m, camera.target_m, camera.up, YFOV_RAD, 160, 120)
     small_image = rr.render(items, small)  # another cached context in between
     assert small_image.shape == (120, 160, 3)
     assert _red(small_image).any()
@@ -193,8 +194,8 @@ def test_repeated_renders_do_not_leak_memory():
     # ~1.9 MB of vertex data per scene (20480 flat-shaded faces): a leak of the scene's GPU
     # buffers or of the frame buffers would add well over 50 MB in 40 renders.
     sphere = trimesh.creation.icosphere(subdivisions=5, radius=0.03)
-    items = [rr.SceneItem(sphere, np.eye(4), (0.2, 0.7, 0.2, 1.0), "sphere")]
-    camera = rr.fit_camera(items)
+    items = [rc.SceneItem(sphere, np.eye(4), (0.2, 0.7, 0.2, 1.0), "sphere")]
+    camera = rc.fit_camera(items)
     for _ in range(5):
         rr.render(items, camera)
     before = _rss_bytes()
@@ -207,7 +208,7 @@ def test_repeated_renders_do_not_leak_memory():
 def test_fit_camera_keeps_every_corner_inside_the_margin():
     items = _scene()
     margin = 1.15
-    camera = rr.fit_camera(items, margin=margin, width_px=640, height_px=480)
+    camera = rc.fit_camera(items, margin=margin, width_px=640, height_px=480)
     bounds = np.array([item.world_bounds_m() for item in items])
     low, high = bounds[:, 0].min(axis=0), bounds[:, 1].max(axis=0)
     corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1])
@@ -225,29 +226,29 @@ def test_fit_camera_keeps_every_corner_inside_the_margin():
 def test_exploded_moves_items_along_centroid_direction():
     items = _scene()
     center = np.array([0.0, 0.0, 0.0])
-    moved = rr.exploded(items, center, 0.5)
+    moved = rc.exploded(items, center, 0.5)
     for before, after in zip(items, moved, strict=True):
         shift = after.T_world_item[:3, 3] - before.T_world_item[:3, 3]
         np.testing.assert_allclose(shift, 0.5 * (before.T_world_item[:3, 3] - center), atol=1e-12)
         np.testing.assert_array_equal(after.T_world_item[:3, :3], before.T_world_item[:3, :3])
         assert after.name == before.name and after.mesh is before.mesh
-    unmoved = rr.exploded(items, center, 0.0)
+    unmoved = rc.exploded(items, center, 0.0)
     for before, after in zip(items, unmoved, strict=True):
         np.testing.assert_array_equal(after.T_world_item, before.T_world_item)
     with pytest.raises(ValueError, match="expected factor >= 0"):
-        rr.exploded(items, center, -1.0)
+        rc.exploded(items, center, -1.0)
 
 
 def test_scene_item_and_camera_validate_inputs():
     box = trimesh.creation.box(extents=(0.01, 0.01, 0.01))
     with pytest.raises(ValueError, match=r"expected a \(4, 4\) transform, found shape \(3, 3\)"):
-        rr.SceneItem(box, np.eye(3), (1.0, 0.0, 0.0, 1.0))
+        rc.SceneItem(box, np.eye(3), (1.0, 0.0, 0.0, 1.0))
     with pytest.raises(ValueError, match="expected a rotation block"):
-        rr.SceneItem(box, np.diag([2.0, 1.0, 1.0, 1.0]), (1.0, 0.0, 0.0, 1.0))
+        rc.SceneItem(box, np.diag([2.0, 1.0, 1.0, 1.0]), (1.0, 0.0, 0.0, 1.0))
     with pytest.raises(ValueError, match=r"expected color_rgba as 4 floats in \[0, 1\]"):
-        rr.SceneItem(box, np.eye(4), (255, 0, 0, 255))
+        rc.SceneItem(box, np.eye(4), (255, 0, 0, 255))
     with pytest.raises(ValueError, match="expected up not parallel to the view direction"):
-        rr.Camera(eye_m=(0.0, 0.0, 1.0), target_m=(0.0, 0.0, 0.0))
+        rc.Camera(eye_m=(0.0, 0.0, 1.0), target_m=(0.0, 0.0, 0.0))
 
 
 def test_save_png_is_atomic_and_deterministic(tmp_path: Path):
@@ -305,11 +306,12 @@ _PLATFORM_SCRIPT = textwrap.dedent(
     import os
     import numpy as np
     import trimesh
+    from asmplan.report import camera as rc
     from asmplan.report import render as rr
 
-    items = [rr.SceneItem(trimesh.creation.box(extents=(0.01, 0.01, 0.01)), np.eye(4),
+    items = [rc.SceneItem(trimesh.creation.box(extents=(0.01, 0.01, 0.01)), np.eye(4),
                           (1.0, 0.0, 0.0, 1.0))]
-    camera = rr.fit_camera(items, width_px=64, height_px=48)
+    camera = rc.fit_camera(items, width_px=64, height_px=48)
 
     def message():
         try:
