@@ -224,6 +224,8 @@ def _scenario_name(c: float) -> str:
     return f"pin {kind} {abs(c) * 1e3:.3f} mm radial"
 
 
+# Complexity above C (radon): the accuracy scenarios per preset (seed cycle, slip, insertions
+# against the reference, contact figures), each adding its figures in the report's order.
 def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
                  clearances_m: Sequence[float] | None = None, *,
                  check_convergence: bool = False,

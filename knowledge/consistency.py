@@ -122,6 +122,8 @@ def _probe_points(f: Feature, prims: tuple[Primitive, ...], cut: bool, added: bo
     return out
 
 
+# Complexity above C (radon): one check per feature kind (pin on a body, stand-alone pin,
+# hole origin, core, through, wall), each a branch with its own message.
 def part_inconsistencies(part: Part) -> list[Inconsistency]:
     """Features against the primitives of one part (none for a mesh part)."""
     g = part.geometry
@@ -193,6 +195,8 @@ def _built_diameters(pin: Feature, hole: Feature, mate) -> tuple[float, float]:
     return pin.diameter_m - 0.5 * extra, hole.diameter_m + 0.5 * extra
 
 
+# Complexity above C (radon): one check per mate property (one mate per pin and hole, sizes
+# already built, diameters, axis, coaxiality, reach), each with its own message.
 def mate_inconsistencies(product: Product) -> list[Inconsistency]:
     """Mates at the assembled pose and against each other (see the module docstring)."""
     out: list[Inconsistency] = []

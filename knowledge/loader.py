@@ -406,6 +406,8 @@ class _Builder:
     def err(self, path: PathKey, message: str, *, key: bool = False) -> None:
         self.ctx.error(path, message, key=key)
 
+    # Complexity above C (radon): the loader's top level: every section of the file is read in order
+    # and every issue collected (units, header, materials, resources, parts, mates, consistency).
     def run(self) -> Product:
         data = self.doc.data
         if not isinstance(data, dict):
@@ -550,6 +552,8 @@ class _Builder:
                  f"{', '.join(sorted(materials))}")
         return None
 
+    # Complexity above C (radon): one branch per geometry type (mesh, box, cylinder, sphere,
+    # compound) and per hole or pin check, each with its own message.
     def build_geometry(self, g: dict[str, Any], path: PathKey, part: str) -> Geometry | None:
         kind = g["type"]
         if kind == "mesh":

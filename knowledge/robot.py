@@ -176,6 +176,8 @@ def _mesh_file(filename: str, urdf: Path) -> Path:
     return p
 
 
+# Complexity above C (radon): one check per URDF requirement (XML, robot, one serial chain to
+# the flange, six revolute joints with limits, collision geometry), each its own UrdfError.
 def read_urdf_arm(path: Path, flange: str | None = None) -> UrdfArm:
     """Read and check the serial arm in a URDF file.
 

@@ -152,6 +152,8 @@ class Num(Spec):
                 return si if self.unit else value
         return self._check(value, path, ctx)
 
+    # Complexity above C (radon): one branch per constraint on a number (type, finite, whole,
+    # sign, minimum, maximum, magnitude, smallest size), each with its own message.
     def _check(self, value: Any, path: PathKey, ctx: Context) -> Any:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             return ctx.error(path, f"expected {self._what()}, found {describe(value)}")

@@ -199,6 +199,8 @@ def _fit_cylinder(V: np.ndarray, a0: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return p, a, float(x[4]), float(np.sqrt(np.mean(sol.fun ** 2)))
 
 
+# Complexity above C (radon): region growing, then one classification per region (plane,
+# cylinder, cone), each with its own fit and acceptance test.
 def fit_mesh_surfaces(vertices_m: np.ndarray, faces: np.ndarray, *, smooth_angle_deg: float = 25.0,
                       min_faces: int = 6) -> list[Surface]:
     """Planes, cylinders and cones fitted to a closed triangle mesh.
@@ -427,6 +429,8 @@ def _hexagons(planes: list[Surface], p: np.ndarray, a: np.ndarray, tol: Recognit
     return found
 
 
+# Complexity above C (radon): the recognition rules in order (holes with their mouths, chamfers
+# and counterbores; male cylinders; hexagons; slots), sharing the surface bookkeeping.
 def recognise(surfaces: list[Surface], vertices_m: np.ndarray, faces: np.ndarray,
               tol: RecognitionTolerance | None = None) -> tuple[list[CadFeature], list[str]]:
     """Features of one part from its surfaces and mesh (see the module docstring).

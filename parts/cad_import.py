@@ -257,6 +257,8 @@ def _blocked(male: ImportedPart, female: ImportedPart, direction: np.ndarray, di
     return False
 
 
+# Complexity above C (radon): every male/female pair is tested for kind, axis, coaxiality and
+# overlap, and the fit or thread it takes; each test is one branch.
 def propose_mates(parts: list[ImportedPart], settings: ImportSettings, mesh: bool
                   ) -> tuple[list[ProposedMate], list[str]]:
     """Every coaxial male/female pair of two parts with overlapping extent (module docstring)."""
@@ -496,6 +498,8 @@ def _material(part: ImportedPart) -> str:
     return "steel" if males or any(f.kind == "hex" for f in part.features) else "aluminium"
 
 
+# Complexity above C (radon): writes every section of the product file (parts with their
+# features, mates, fasteners, notes); each feature and mate kind is one branch.
 def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     """The product file text for ``result``; part meshes are named ``<mesh_dir_rel>/<def>.stl``."""
     simulated_parts = [p for p in result.parts if p.name not in result.fasteners]

@@ -77,6 +77,8 @@ def _axis_classes(holes: list[HoleShape]) -> list[int]:
     return out
 
 
+# Complexity above C (radon): a search over candidate cut planes (axis and hole normals)
+# for the one that separates the hole classes, with the interval sweep inline.
 def _split_by_axes(solid, holes: list[HoleShape], notes: list[str]) -> list[tuple[object, list[HoleShape]]]:
     """Regions of ``solid`` each holding holes of one axis direction (step 1)."""
     classes = _axis_classes(holes)

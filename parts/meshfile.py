@@ -232,6 +232,8 @@ def _open_edges(mesh) -> int:
     return len(groups)
 
 
+# Complexity above C (radon): read, scale, repair and check a mesh: one branch per file
+# format and per check (bodies, watertight, size), each with its own message.
 def load_mesh_file(path: Path | str, scale: float = 1.0,
                    settings: GeometrySettings | None = None, body: str | None = None) -> LoadedMesh:
     """Read, scale, repair and check a mesh file (see the module docstring).

@@ -191,6 +191,8 @@ class MotionPlanner:
         return SE3Bounds(lo, hi)
 
     # -- one step ---------------------------------------------------------------------------
+    # Complexity above C (radon): one step's stages (fixture, press hand-over, the part alone,
+    # grasps best first with their failure bookkeeping) share the grasp state.
     def plan_step(self, index: int, part: str, fallback_direction: np.ndarray | None = None,
                   grasp: Grasp | None = None) -> tuple[Step, StepTiming]:
         """Plan the step that inserts ``part`` into the current partial assembly; on success

@@ -67,14 +67,12 @@ from .blocking import BlockingTable, GeometryOracle, blocking_table
 from .precedence import NoFeasibleSequenceError, PrecedenceConflictError, _fixture_names, derive_precedence
 from .sequence_search import (
     COST_TERMS,
-    _beam,
     _Compiled,
-    _dfs,
     _distinct,
-    _exhaustive,
     _first_blocking_rule,
     _Label,
     identical_parts,
+    search_orders,
 )
 
 
@@ -413,26 +411,7 @@ def plan_sequence(product: Product, oracle: GeometryOracle | None = None,
     # enough to return top_k distinct ones
     k = min(settings.top_k * math.prod(math.factorial(len(g)) for g in classes),
             max(settings.top_k, settings.max_identical_pool))
-    necessary: list[tuple[str, str]] = []
-    result = _exhaustive(c, k)
-    if result is not None:
-        labels, feasible, states, necessary, dead_end = result
-        method: str = "exhaustive"
-        count: int | None = feasible
-    else:
-        method, count, labels, states, dead_end = "beam", None, [], 0, -1
-        width = settings.beam_width
-        while width <= settings.max_beam_width:
-            labels, expanded, dead_end = _beam(c, width, k)
-            states += expanded
-            if labels:
-                break
-            width *= 2
-        if not labels:
-            found, n_dead, dead_end = _dfs(c)
-            states += n_dead
-            method = "dfs"
-            labels = [found] if found is not None else []
+    labels, method, count, states, necessary, dead_end = search_orders(c, k)
     timings["search"] = time.perf_counter() - t2
     if not labels:
         rule = _first_blocking_rule(product, table, settings) if product.precedence.rules else None

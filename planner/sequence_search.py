@@ -497,6 +497,36 @@ def _dfs(c: _Compiled) -> tuple[_Label | None, int, int]:
     return found, len(dead), smallest[0]
 
 
+def search_orders(c: _Compiled, k: int) -> tuple[list[_Label], str, int | None, int,
+                                                list[tuple[str, str]], int]:
+    """The best ``k`` orders: exhaustive when the states are few enough, else beam search
+    widening up to ``max_beam_width``, else depth first (complete).
+
+    Returns (labels best first, method, feasible count or None, states, necessary pairs,
+    smallest dead end or -1).
+    """
+    settings = c.settings
+    necessary: list[tuple[str, str]] = []
+    result = _exhaustive(c, k)
+    if result is not None:
+        labels, feasible, states, necessary, dead_end = result
+        return labels, "exhaustive", feasible, states, necessary, dead_end
+    method, labels, states, dead_end = "beam", [], 0, -1
+    width = settings.beam_width
+    while width <= settings.max_beam_width:
+        labels, expanded, dead_end = _beam(c, width, k)
+        states += expanded
+        if labels:
+            break
+        width *= 2
+    if not labels:
+        found, n_dead, dead_end = _dfs(c)
+        states += n_dead
+        method = "dfs"
+        labels = [found] if found is not None else []
+    return labels, method, None, states, necessary, dead_end
+
+
 def _first_blocking_rule(product: Product, table: BlockingTable, settings: SequenceSettings
                          ) -> PrecedenceRule | None:
     """The first rule (by line) whose removal makes the product feasible, if any."""
@@ -565,4 +595,4 @@ def _distinct(c: _Compiled, labels: list[_Label], classes: list[tuple[str, ...]]
     return out
 
 
-__all__ = ["COST_TERMS", "identical_parts"]
+__all__ = ["COST_TERMS", "identical_parts", "search_orders"]

@@ -361,6 +361,8 @@ def _fidelity_block(fidelity: Any) -> dict[str, Any]:
     return {"name": fidelity.name, "rows": rows, "accuracy": accuracy}
 
 
+# Complexity above C (radon): assembles the report: each optional input (views, arm,
+# sequence, failure, results, warnings) adds its section.
 def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True) -> Path:
     """Render the images and write ``report.html`` into ``folder``; returns its path."""
     folder.mkdir(parents=True, exist_ok=True)

@@ -706,6 +706,8 @@ class BulletWorld:
                 raise ShapeDroppedError(name, link, n, found)
 
     # ---------------------------------------------------------------- bodies
+    # Complexity above C (radon): validates mass, centre of mass and inertia, then sets the engine's
+    # per-link dynamics (damping, hulls, margins); each check raises its own error.
     def add_body(
         self,
         pieces: Sequence[ConvexPiece],
@@ -865,6 +867,8 @@ class BulletWorld:
         T[2, 3] = z_m - thickness
         return self.add_body((slab,), 0.0, T, friction=friction, name=name)
 
+    # Complexity above C (radon): builds one multibody: base and links with their pieces,
+    # inertias, joint limits and per-link contact settings.
     def add_articulated(
         self,
         base_pieces: Sequence[ConvexPiece],

@@ -131,6 +131,8 @@ def scene_warnings(
     return tuple(out)
 
 
+# Complexity above C (radon): the simulation loop; per tick the gripper mode, the press hook,
+# the record rows, the peak criteria and the guard share the loop state (staged in sim/bodies, nest).
 def execute_step(
     world: BulletWorld,
     gripper: Gripper,
@@ -433,6 +435,8 @@ def failed_outcome(reasons: Sequence[str], warnings: Sequence[str] = (), wall_ti
     )
 
 
+# Complexity above C (radon): one branch per criterion (held, slip, position, axis, angle,
+# insertion force, penetration, energy), each producing its typed failure.
 def judge(
     record: StepRecord,
     trajectory: Trajectory,

@@ -107,6 +107,8 @@ def summary_table(plan: Plan, step_ms: list[float]) -> str:
     return format_table(head, rows)
 
 
+# Complexity above C (radon): a CLI command; each branch is one option (--sequence) or one
+# outcome it prints (planning failure with evidence, arm, dropped steps, start notes).
 def run(args: argparse.Namespace) -> int:
     from ..parts.models import ProductGeometry
     from ..planner.fcl_oracle import FclOracle
