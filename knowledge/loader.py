@@ -418,7 +418,7 @@ class _Builder:
             {"length": "mm", "mass": "kg", "angle": "deg"}
         if units is INVALID:
             units = {"length": "mm", "mass": "kg", "angle": "deg"}
-            raw_units = data.get("units") if isinstance(data.get("units"), dict) else {}
+            raw_units: dict[str, Any] = data["units"] if isinstance(data.get("units"), dict) else {}
             units.update({k: v for k, v in raw_units.items()
                           if isinstance(v, str) and v in {**LENGTH_UNITS, **MASS_UNITS, **ANGLE_UNITS}})
         L = LENGTH_UNITS.get(units["length"], 1e-3)
@@ -443,11 +443,11 @@ class _Builder:
                 materials[name] = Material(name, m["density"], m["friction"],
                                            tuple(m["color"]) if m["color"] else (0.7, 0.7, 0.7),
                                            None if E is None else E * 1e9, m["poisson_ratio"])
-        raw_parts = data.get("parts") if isinstance(data.get("parts"), list) else []
+        raw_parts: list[Any] = data["parts"] if isinstance(data.get("parts"), list) else []
         # every part name written down, even in a part that is otherwise invalid, so that
         # cross-references to it are not reported as unknown on top of the real error
-        self.all_names = [p.get("name") for p in raw_parts if isinstance(p, dict)
-                          and isinstance(p.get("name"), str)]
+        self.all_names: list[str] = [p["name"] for p in raw_parts if isinstance(p, dict)
+                                     and isinstance(p.get("name"), str)]
         self.known_names = set(self.all_names)
         parts = self.build_parts(raw_parts, materials)
         gripper_etc = top.get("resources")
@@ -572,6 +572,7 @@ class _Builder:
                          f'{full.suffix} file', key=True)
                 return None
             return Geometry(kind="mesh", mesh_file=full, mesh_scale=scale, mesh_body=g.get("body"))
+        prims: tuple[Primitive, ...]
         if kind == "box":
             prims = (Primitive("box", np.eye(4), size_m=tuple(g["size"])),)
         elif kind == "cylinder":
@@ -783,6 +784,7 @@ class _Builder:
         if abs(pin.diameter_m - hole.diameter_m) > 1e-9:
             key = next(k for k in ("fit", "clearance", "interference") if v[k] is not None)
             if key == "fit" and pin.diameter_m > hole.diameter_m:
+                kind: str
                 try:
                     kind = iso286.fit(v["fit"], hole.diameter_m).kind
                 except iso286.FitError:
@@ -844,7 +846,7 @@ class _Builder:
         if base not in (None, INVALID):
             self.check_part_ref(base, ("precedence", "base"))
         rules: list[PrecedenceRule] = []
-        graph = nx.DiGraph()
+        graph: nx.DiGraph[str] = nx.DiGraph()
         for i, r in enumerate(v.get("rules") or []):
             path: PathKey = ("precedence", "rules", i)
             ok = self.check_part_ref(r["before"], (*path, "before"))

@@ -315,7 +315,7 @@ class Tagged(Spec):
 class OneOf(Spec):
     """Either of two specs chosen by the YAML type of the value (number vs mapping, ...)."""
 
-    by_type: Mapping[type, Spec]
+    by_type: Mapping[type | tuple[type, ...], Spec]
     expected: str = "a value"
 
     def check(self, value: Any, path: PathKey, ctx: Context) -> Any:
