@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -41,6 +42,13 @@ def transform_points(T: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Apply ``T`` (4, 4) to ``points`` (n, 3); returns (n, 3)."""
     pts = np.asarray(points, dtype=float)
     return pts @ T[:3, :3].T + T[:3, 3]
+
+
+def rotation_about(axis: ArrayLike, angle_rad: float) -> np.ndarray:
+    """Rotation matrix (3, 3) of ``angle_rad`` about the unit vector ``axis`` (Rodrigues)."""
+    k = np.asarray(axis, dtype=float)
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle_rad) * K + (1.0 - math.cos(angle_rad)) * (K @ K)
 
 
 def rotation_between(a: ArrayLike, b: ArrayLike) -> np.ndarray:

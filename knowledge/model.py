@@ -22,20 +22,13 @@ from typing import Literal
 
 import numpy as np
 
+from .arrays import readonly_array
 from .materials import Material
 from .robot import JointLimit
 
 FeatureKind = Literal["pin", "shaft", "hole", "bore"]
 MALE_KINDS = ("pin", "shaft")
 FEMALE_KINDS = ("hole", "bore")
-
-
-def _readonly(a: object, shape: tuple[int, ...], name: str) -> np.ndarray:
-    arr = np.array(a, dtype=float)
-    if arr.shape != shape:
-        raise ValueError(f"{name}: expected shape {shape}, found {arr.shape}")
-    arr.setflags(write=False)
-    return arr
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,7 +46,7 @@ class Primitive:
     length_m: float = 0.0
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "T_part_shape", _readonly(self.T_part_shape, (4, 4), "T_part_shape"))
+        object.__setattr__(self, "T_part_shape", readonly_array(self.T_part_shape, (4, 4), "T_part_shape"))
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,12 +107,12 @@ class Feature:
     through: bool = False
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "origin_m", _readonly(self.origin_m, (3,), "origin_m"))
+        object.__setattr__(self, "origin_m", readonly_array(self.origin_m, (3,), "origin_m"))
         axis = np.asarray(self.axis, dtype=float)
         norm = float(np.linalg.norm(axis))
         if norm == 0:
             raise ValueError(f"feature {self.part}.{self.name}: axis must be non-zero")
-        object.__setattr__(self, "axis", _readonly(axis / norm, (3,), "axis"))
+        object.__setattr__(self, "axis", readonly_array(axis / norm, (3,), "axis"))
 
     @property
     def is_male(self) -> bool:

@@ -48,6 +48,7 @@ import numpy as np
 
 from ..errors import AsmplanError
 from ..knowledge import iso286
+from ..knowledge.arrays import readonly_array
 from ..knowledge.frames import frame_from_axis, invert, transform_points
 from ..knowledge.model import Feature, Part, Product
 from .mesh import TriangleMesh
@@ -567,11 +568,8 @@ class MassProperties:
         if not (math.isfinite(self.mass_kg) and self.mass_kg > 0):
             raise ValueError(f"MassProperties.mass_kg: expected > 0, found {self.mass_kg!r}")
         for name, shape in (("com_m", (3,)), ("inertia_kgm2", (3, 3))):
-            arr = np.array(getattr(self, name), dtype=float)
-            if arr.shape != shape:
-                raise ValueError(f"MassProperties.{name}: expected shape {shape}, found {arr.shape}")
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
+            object.__setattr__(self, name,
+                               readonly_array(getattr(self, name), shape, f"MassProperties.{name}"))
 
 
 def mass_properties(part: Part, mesh) -> MassProperties:

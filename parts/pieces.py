@@ -16,18 +16,10 @@ from typing import Literal
 
 import numpy as np
 
+from ..knowledge.arrays import readonly_array
+
 PieceKind = Literal["box", "cylinder", "sphere", "hull"]
 LevelOfDetail = Literal["exact", "convex", "coarse"]
-
-
-def _frozen_array(value: object, shape: tuple[int, ...] | None, name: str) -> np.ndarray:
-    arr = np.array(value, dtype=float)
-    if shape is not None and arr.shape != shape:
-        raise ValueError(f"{name}: expected shape {shape}, found {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected finite numbers, found {arr.tolist()}")
-    arr.setflags(write=False)
-    return arr
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,11 +46,12 @@ class ConvexPiece:
     name: str = ""
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "T_part_piece", _frozen_array(self.T_part_piece, (4, 4), "T_part_piece"))
+        object.__setattr__(self, "T_part_piece",
+                           readonly_array(self.T_part_piece, (4, 4), "T_part_piece", finite=True))
         if self.kind == "box":
             if self.half_extents_m is None:
                 raise ValueError("box piece: half_extents_m is required")
-            he = _frozen_array(self.half_extents_m, (3,), "half_extents_m")
+            he = readonly_array(self.half_extents_m, (3,), "half_extents_m", finite=True)
             if np.any(he <= 0):
                 raise ValueError(f"box piece: half extents must be positive, found {he.tolist()}")
             object.__setattr__(self, "half_extents_m", he)
@@ -74,7 +67,7 @@ class ConvexPiece:
         elif self.kind == "hull":
             if self.vertices_m is None:
                 raise ValueError("hull piece: vertices_m is required")
-            v = _frozen_array(self.vertices_m, None, "vertices_m")
+            v = readonly_array(self.vertices_m, None, "vertices_m", finite=True)
             if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 4:
                 raise ValueError(f"hull piece: expected (n>=4, 3) vertices, found {v.shape}")
             object.__setattr__(self, "vertices_m", v)

@@ -21,6 +21,7 @@ from typing import Any, Literal
 import numpy as np
 
 from ..fileio import atomic_write_text, dumps_json
+from ..knowledge.arrays import readonly_array
 from .ompl_backend import PLANNERS
 from .press import PressOperation
 from .timing import ClampForce, TimingSettings
@@ -32,18 +33,8 @@ PLAN_VERSION = 1
 StepKind = Literal["fixture", "insert", "place"]
 
 
-def _arr(value: Any, shape: tuple[int, ...], name: str) -> np.ndarray:
-    a = np.array(value, dtype=float)
-    if a.shape != shape:
-        raise ValueError(f"{name}: expected shape {shape}, found {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name}: expected finite numbers, found NaN or inf")
-    a.setflags(write=False)
-    return a
-
-
 def _pose(value: Any, name: str) -> np.ndarray:
-    T = _arr(value, (4, 4), name)
+    T = readonly_array(value, (4, 4), name, finite=True)
     R = T[:3, :3]
     if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or abs(np.linalg.det(R) - 1.0) > 1e-6:
         raise ValueError(f"{name}: expected a rigid transform, found a non-rotation block")
@@ -395,7 +386,8 @@ class Step:
                                _pose(self.T_world_pre_insertion, "T_world_pre_insertion"))
         if self.insertion_direction is not None:
             object.__setattr__(self, "insertion_direction",
-                               _arr(self.insertion_direction, (3,), "insertion_direction"))
+                               readonly_array(self.insertion_direction, (3,), "insertion_direction",
+                                              finite=True))
         if self.path_T_world_gripper is not None:
             p = np.array(self.path_T_world_gripper, dtype=float)
             if p.ndim != 3 or p.shape[1:] != (4, 4):

@@ -44,6 +44,8 @@ from typing import Any
 
 import numpy as np
 
+from ..knowledge.arrays import readonly_array
+
 PHASES: tuple[str, ...] = ("clamp", "hold", "lift", "translate", "lower", "release")
 OPTIONAL_PHASES: tuple[str, ...] = ("approach", "retreat")
 OPEN_PHASES: tuple[str, ...] = OPTIONAL_PHASES
@@ -172,12 +174,6 @@ class PhaseSpan:
             )
 
 
-def _readonly(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
-
-
 @dataclass(frozen=True, eq=False)
 class Trajectory:
     """Time-sampled gripper TCP poses and commanded clamp forces, split into phases.
@@ -200,9 +196,9 @@ class Trajectory:
     phases: tuple[PhaseSpan, ...]
 
     def __post_init__(self) -> None:
-        t = _readonly(self.t_s)
-        T = _readonly(self.T_world_gripper)
-        f = _readonly(self.clamp_force_N)
+        t = readonly_array(self.t_s)
+        T = readonly_array(self.T_world_gripper)
+        f = readonly_array(self.clamp_force_N)
         if t.ndim != 1 or t.shape[0] < 2:
             raise ValueError(f"t_s: expected shape (N>=2,), found {t.shape}")
         n = t.shape[0]

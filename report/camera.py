@@ -20,17 +20,9 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from ..knowledge.arrays import readonly_array
+
 __all__ = ["Camera", "SceneItem", "exploded", "fit_camera"]
-
-
-def _as_vector3(value: Any, name: str) -> np.ndarray:
-    array = np.array(value, dtype=float)
-    if array.shape != (3,):
-        raise ValueError(f"{name}: expected shape (3,), found {array.shape}")
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f"{name}: expected finite values, found {array.tolist()}")
-    array.setflags(write=False)
-    return array
 
 
 def _as_rigid_transform(value: Any, name: str) -> np.ndarray:
@@ -134,9 +126,10 @@ class Camera:
     height_px: int = 600
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "eye_m", _as_vector3(self.eye_m, "Camera eye_m"))
-        object.__setattr__(self, "target_m", _as_vector3(self.target_m, "Camera target_m"))
-        object.__setattr__(self, "up", _as_vector3(self.up, "Camera up"))
+        object.__setattr__(self, "eye_m", readonly_array(self.eye_m, (3,), "Camera eye_m", finite=True))
+        object.__setattr__(self, "target_m",
+                           readonly_array(self.target_m, (3,), "Camera target_m", finite=True))
+        object.__setattr__(self, "up", readonly_array(self.up, (3,), "Camera up", finite=True))
         view = self.target_m - self.eye_m
         if np.linalg.norm(view) <= 1e-12:
             raise ValueError(
@@ -250,7 +243,7 @@ def fit_camera(
     """
     if not margin >= 1.0:
         raise ValueError(f"fit_camera: expected margin >= 1, found {margin!r}")
-    direction_unit = _as_vector3(direction, "fit_camera direction")
+    direction_unit = readonly_array(direction, (3,), "fit_camera direction", finite=True)
     length = float(np.linalg.norm(direction_unit))
     if length <= 1e-12:
         raise ValueError(f"fit_camera: expected a non-zero direction, found {list(direction)}")
@@ -302,7 +295,7 @@ def exploded(
     list of SceneItem
         New items, in the same order.
     """
-    center = _as_vector3(center_m, "exploded center_m")
+    center = readonly_array(center_m, (3,), "exploded center_m", finite=True)
     if not (np.isfinite(factor) and factor >= 0.0):
         raise ValueError(f"exploded: expected factor >= 0, found {factor!r}")
     moved = []

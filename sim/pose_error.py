@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from ..knowledge.frames import rotation_about
+
 
 @dataclass(frozen=True)
 class PoseError:
@@ -74,12 +76,6 @@ def insertion_frame(direction: Sequence[float]) -> np.ndarray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
-def _rotation_about(axis: np.ndarray, angle_rad: float) -> np.ndarray:
-    k = np.asarray(axis, dtype=float)
-    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(angle_rad) * K + (1.0 - math.cos(angle_rad)) * (K @ K)
-
-
 POSE_ERROR_RAMP_PHASE = "translate"
 """The phase over which the robot's pose error builds up (min-jerk from 0 to full)."""
 
@@ -124,8 +120,8 @@ def apply_pose_error(trajectory: Any, direction: Sequence[float], error: PoseErr
     offset = R_ins[:, :2] @ np.asarray(error.lateral_m, dtype=float)
     T = np.array(trajectory.T_world_gripper, dtype=float)
     for i in np.flatnonzero(s > 0.0):
-        R_err = (_rotation_about(R_ins[:, 1], s[i] * error.tilt_rad[1])
-                 @ _rotation_about(R_ins[:, 0], s[i] * error.tilt_rad[0]))
+        R_err = (rotation_about(R_ins[:, 1], s[i] * error.tilt_rad[1])
+                 @ rotation_about(R_ins[:, 0], s[i] * error.tilt_rad[0]))
         T[i, :3, :3] = R_err @ T[i, :3, :3]
         T[i, :3, 3] += s[i] * offset
     return Trajectory(t_s=t, T_world_gripper=T, clamp_force_N=trajectory.clamp_force_N,

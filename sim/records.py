@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ..knowledge.arrays import readonly_array
 from .verdicts import Failure
 
 HELD_PHASES: tuple[str, ...] = ("hold", "lift", "translate", "lower")
@@ -130,10 +131,9 @@ class StepRecord:
     def __post_init__(self) -> None:
         m = np.asarray(self.t_s).shape[0]
         for name in _RECORD_ARRAYS:
-            a = np.array(getattr(self, name))
+            a = readonly_array(getattr(self, name), dtype=None)
             if a.shape[:1] != (m,):
                 raise ValueError(f"StepRecord.{name}: expected {m} rows, found shape {a.shape}")
-            a.setflags(write=False)
             object.__setattr__(self, name, a)
         object.__setattr__(self, "phase_names", tuple(self.phase_names))
 

@@ -142,3 +142,44 @@ def test_rotation_between_turns_a_onto_b_also_for_opposite_vectors(a):
         np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
         assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-12)
         np.testing.assert_allclose(R @ u, b / np.linalg.norm(b), atol=1e-12)
+
+
+@pytest.mark.parametrize("axis", [(0, 0, 1), (1, 0, 0), (1, 2, -3)])
+def test_rotation_about_turns_by_the_angle_and_keeps_the_axis(axis):
+    """Rodrigues' rotation (the pose-error tilt): a proper rotation that keeps its axis, turns
+    a perpendicular vector by exactly the angle, and agrees with rotation_between for it."""
+    from asmplan.knowledge.frames import rotation_about, rotation_between
+
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
+    p = np.cross(k, [0.3, -0.7, 0.2])
+    p /= np.linalg.norm(p)
+    for angle in (0.0, 0.01, 1.0, np.pi / 2, np.pi, -2.5):
+        R = rotation_about(k, angle)
+        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+        assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-12)
+        np.testing.assert_allclose(R @ k, k, atol=1e-12)
+        q = R @ p
+        assert float(np.dot(p, q)) == pytest.approx(np.cos(angle), abs=1e-12)
+        assert float(np.dot(np.cross(p, q), k)) == pytest.approx(np.sin(angle), abs=1e-12)
+    # a quarter turn about k maps p onto k x p, as the shortest rotation from p to k x p does
+    np.testing.assert_allclose(rotation_about(k, np.pi / 2) @ p,
+                               rotation_between(p, np.cross(k, p)) @ p, atol=1e-12)
+
+
+def test_readonly_array_checks_shape_and_finiteness_and_freezes_a_copy():
+    from asmplan.knowledge.arrays import readonly_array
+
+    src = np.array([1.0, 2.0, 3.0])
+    a = readonly_array(src, (3,), "v", finite=True)
+    src[0] = 9.0
+    assert a.tolist() == [1.0, 2.0, 3.0] and not a.flags.writeable
+    with pytest.raises(ValueError):
+        a[0] = 0.0
+    with pytest.raises(ValueError, match=r"v: expected shape \(3,\), found \(2,\)"):
+        readonly_array([1, 2], (3,), "v")
+    with pytest.raises(ValueError, match=r"v: expected finite numbers, found \[1.0, nan\]"):
+        readonly_array([1.0, float("nan")], None, "v", finite=True)
+    with pytest.raises(ValueError, match=r"T: expected finite numbers, found 1 NaN or inf entries"):
+        readonly_array(np.r_[np.zeros(99), np.inf], None, "T", finite=True)
+    assert readonly_array([1.0, float("nan")]).shape == (2,)  # finite only when asked
+    assert readonly_array([True, False], dtype=None).dtype == bool  # dtype kept when None
