@@ -24,6 +24,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from ompl import base as ob
@@ -109,7 +110,6 @@ class OmplResult:
     planner: str
 
 
-
 def _simplify(ss: og.SimpleSetup, path: og.PathGeometric) -> None:
     """Shorten a solved path in place, deterministically and bounded: drop vertices that can be
     skipped, then merge close ones (simplifyMax would also smooth, at ~10x the validity checks)."""
@@ -118,13 +118,87 @@ def _simplify(ss: og.SimpleSetup, path: og.PathGeometric) -> None:
     ps.collapseCloseVertices(path)
     ps.reduceVertices(path)
 
+@dataclass(frozen=True, eq=False)
+class _Outcome:
+    """What :func:`_query` found: ``values`` are the path's waypoints (start and goal exactly
+    when solved; the best partial path, at least the start, when not); ``direct`` when the
+    straight motion was valid (no search ran)."""
+
+    status: str
+    solved: bool
+    values: list[np.ndarray]
+    elapsed_s: float
+    checks: int
+    direct: bool = False
+
+
+def _query(make_space: Callable[[], Any], low: np.ndarray, high: np.ndarray, resolution: float,
+           state_valid: Callable[[Any], bool], fill_start: Callable[[Any], None],
+           fill_goal: Callable[[Any], None], value_of: Callable[[Any], np.ndarray],
+           ends: tuple[np.ndarray, np.ndarray], *, planner: str, seed: int, time_budget_s: float,
+           try_direct: bool, simplify: bool) -> _Outcome:
+    """One seeded, silenced OMPL query on a bounded space, shared by :func:`plan_se3` and
+    :func:`plan_joint` (which differ only in the space and how a state reads and is set):
+    the straight motion first when ``try_direct``, else a timed search and, when solved and
+    ``simplify``, :func:`_simplify`. ``ends`` are the start and goal values: a solved path
+    begins and ends on them exactly (a state's round trip, e.g. through a quaternion, changes
+    the last bits)."""
+    level = ou.getLogLevel()
+    ou.setLogLevel(ou.LOG_NONE)
+    try:
+        ou.RNG.setSeed(int(seed) & 0x7FFFFFFF or 1)
+        space = make_space()
+        b = ob.RealVectorBounds(len(low))
+        for i in range(len(low)):
+            b.setLow(i, float(low[i]))
+            b.setHigh(i, float(high[i]))
+        space.setBounds(b)
+        ss = og.SimpleSetup(space)
+        calls = [0]
+
+        def checker(state: Any) -> bool:
+            calls[0] += 1
+            return state_valid(state)
+
+        ss.setStateValidityChecker(checker)
+        si = ss.getSpaceInformation()
+        si.setStateValidityCheckingResolution(min(1.0, resolution / space.getMaximumExtent()))
+        start = space.allocState()
+        goal = space.allocState()
+        fill_start(start)
+        fill_goal(goal)
+        ss.setStartAndGoalStates(start, goal)
+        ss.setPlanner(PLANNERS[planner](si))
+        t0 = time.perf_counter()
+        if try_direct:
+            si.setup()  # start and goal are set: safe (see the module docstring)
+            if si.isValid(start) and si.checkMotion(start, goal):
+                return _Outcome("direct motion valid", True, [ends[0].copy(), ends[1].copy()],
+                                time.perf_counter() - t0, calls[0], direct=True)
+        status = ss.solve(ob.timedPlannerTerminationCondition(float(time_budget_s)))
+        solved = bool(ss.haveExactSolutionPath())
+        values: list[np.ndarray] = []
+        if ss.haveSolutionPath():
+            path = ss.getSolutionPath()
+            if solved and simplify:
+                _simplify(ss, path)
+            values = [value_of(s) for s in path.getStates()]
+        elapsed = time.perf_counter() - t0
+    finally:
+        ou.setLogLevel(level)
+    if not values:
+        values = [ends[0]]
+    if solved:
+        values[0] = ends[0].copy()
+        values[-1] = ends[1].copy()
+    return _Outcome(str(status), solved, values, elapsed, calls[0])
+
+
 def _set_state(state: ob.SE3State, T: np.ndarray) -> None:
     q = quat_xyzw_from_matrix(T[:3, :3])
     state.setXYZ(float(T[0, 3]), float(T[1, 3]), float(T[2, 3]))
     rot = state.rotation()
     rot.x, rot.y, rot.z, rot.w = (float(v) for v in q)
-
-
 
 
 def pose_from_xyz_quat(x: float, y: float, z: float, qx: float, qy: float, qz: float,
@@ -203,59 +277,14 @@ def plan_se3(
             raise ValueError(f"{label}: position {np.asarray(T)[:3, 3].tolist()} outside the "
                              f"planning bounds {bounds.low_m.tolist()}..{bounds.high_m.tolist()}")
 
-    level = ou.getLogLevel()
-    ou.setLogLevel(ou.LOG_NONE)
-    try:
-        ou.RNG.setSeed(int(seed) & 0x7FFFFFFF or 1)
-        space = ob.SE3StateSpace()
-        b = ob.RealVectorBounds(3)
-        for i in range(3):
-            b.setLow(i, float(bounds.low_m[i]))
-            b.setHigh(i, float(bounds.high_m[i]))
-        space.setBounds(b)
-        ss = og.SimpleSetup(space)
-        calls = [0]
-
-        def checker(state: ob.SE3State) -> bool:
-            calls[0] += 1
-            return bool(is_valid(_state_pose(state)))
-
-        ss.setStateValidityChecker(checker)
-        si = ss.getSpaceInformation()
-        si.setStateValidityCheckingResolution(min(1.0, resolution_m / space.getMaximumExtent()))
-        start = space.allocState()
-        goal = space.allocState()
-        _set_state(start, np.asarray(T_start, dtype=float))
-        _set_state(goal, np.asarray(T_goal, dtype=float))
-        ss.setStartAndGoalStates(start, goal)
-        ss.setPlanner(PLANNERS[planner](si))
-        t0 = time.perf_counter()
-        if try_direct:
-            si.setup()  # start and goal are set: safe (see the module docstring)
-            if si.isValid(start) and si.checkMotion(start, goal):
-                return OmplResult(solved=True, status="direct motion valid",
-                                  poses=np.array([np.asarray(T_start, dtype=float).copy(),
-                                                  np.asarray(T_goal, dtype=float).copy()]),
-                                  planning_time_s=time.perf_counter() - t0,
-                                  validity_checks=calls[0], planner=planner)
-        status = ss.solve(ob.timedPlannerTerminationCondition(float(time_budget_s)))
-        solved = bool(ss.haveExactSolutionPath())
-        poses: list[np.ndarray] = []
-        if ss.haveSolutionPath():
-            path = ss.getSolutionPath()
-            if solved and simplify:
-                _simplify(ss, path)
-            poses = [_state_pose(s) for s in path.getStates()]
-        elapsed = time.perf_counter() - t0
-    finally:
-        ou.setLogLevel(level)
-    if not poses:
-        poses = [np.asarray(T_start, dtype=float)]
-    if solved:  # pin the ends exactly (quaternion round trip changes the last bits)
-        poses[0] = np.asarray(T_start, dtype=float).copy()
-        poses[-1] = np.asarray(T_goal, dtype=float).copy()
-    return OmplResult(solved=solved, status=str(status), poses=np.array(poses),
-                      planning_time_s=elapsed, validity_checks=calls[0], planner=planner)
+    start, goal = np.asarray(T_start, dtype=float), np.asarray(T_goal, dtype=float)
+    out = _query(ob.SE3StateSpace, bounds.low_m, bounds.high_m, resolution_m,
+                 lambda state: bool(is_valid(_state_pose(state))),
+                 lambda state: _set_state(state, start), lambda state: _set_state(state, goal),
+                 _state_pose, (start, goal), planner=planner, seed=seed,
+                 time_budget_s=time_budget_s, try_direct=try_direct, simplify=simplify)
+    return OmplResult(solved=out.solved, status=out.status, poses=np.array(out.values),
+                      planning_time_s=out.elapsed_s, validity_checks=out.checks, planner=planner)
 
 
 @dataclass(frozen=True, eq=False)
@@ -289,57 +318,19 @@ def plan_joint(
     if planner not in PLANNERS:
         raise ValueError(f"planner: expected one of {sorted(PLANNERS)}, found {planner!r}")
     n = len(q_start)
-    level = ou.getLogLevel()
-    ou.setLogLevel(ou.LOG_NONE)
-    try:
-        ou.RNG.setSeed(int(seed) & 0x7FFFFFFF or 1)
-        space = ob.RealVectorStateSpace(n)
-        b = ob.RealVectorBounds(n)
-        for i in range(n):
-            b.setLow(i, float(lower[i]))
-            b.setHigh(i, float(upper[i]))
-        space.setBounds(b)
-        ss = og.SimpleSetup(space)
-        calls = [0]
 
-        def q_of(state) -> np.ndarray:
-            return np.array([state[i] for i in range(n)])
+    def q_of(state: Any) -> np.ndarray:
+        return np.array([state[i] for i in range(n)])
 
-        def checker(state) -> bool:
-            calls[0] += 1
-            return bool(is_valid(q_of(state)))
+    def fill(q: np.ndarray) -> Callable[[Any], None]:
+        def set_q(state: Any) -> None:
+            for i in range(n):
+                state[i] = float(q[i])
+        return set_q
 
-        ss.setStateValidityChecker(checker)
-        si = ss.getSpaceInformation()
-        si.setStateValidityCheckingResolution(min(1.0, resolution_rad / space.getMaximumExtent()))
-        start = space.allocState()
-        goal = space.allocState()
-        for i in range(n):
-            start[i] = float(q_start[i])
-            goal[i] = float(q_goal[i])
-        ss.setStartAndGoalStates(start, goal)
-        ss.setPlanner(PLANNERS[planner](si))
-        t0 = time.perf_counter()
-        if try_direct:
-            si.setup()
-            if si.isValid(start) and si.checkMotion(start, goal):
-                return JointPathResult(True, "direct motion valid",
-                                       np.array([q_start, q_goal], dtype=float),
-                                       time.perf_counter() - t0, calls[0])
-        status = ss.solve(ob.timedPlannerTerminationCondition(float(time_budget_s)))
-        solved = bool(ss.haveExactSolutionPath())
-        qs: list[np.ndarray] = []
-        if ss.haveSolutionPath():
-            path = ss.getSolutionPath()
-            if solved:
-                _simplify(ss, path)
-            qs = [q_of(s) for s in path.getStates()]
-        elapsed = time.perf_counter() - t0
-    finally:
-        ou.setLogLevel(level)
-    if not qs:
-        qs = [np.asarray(q_start, dtype=float)]
-    if solved:
-        qs[0] = np.asarray(q_start, dtype=float).copy()
-        qs[-1] = np.asarray(q_goal, dtype=float).copy()
-    return JointPathResult(solved, str(status), np.array(qs), elapsed, calls[0])
+    start, goal = np.asarray(q_start, dtype=float), np.asarray(q_goal, dtype=float)
+    out = _query(lambda: ob.RealVectorStateSpace(n), lower, upper, resolution_rad,
+                 lambda state: bool(is_valid(q_of(state))), fill(q_start), fill(q_goal), q_of,
+                 (start, goal), planner=planner, seed=seed, time_budget_s=time_budget_s,
+                 try_direct=try_direct, simplify=True)
+    return JointPathResult(out.solved, out.status, np.array(out.values), out.elapsed_s, out.checks)
