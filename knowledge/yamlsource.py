@@ -183,11 +183,6 @@ class _Composer:
         return (*top.path, top.key)
 
     # -- events ---------------------------------------------------------------------------
-    def feed(self, event: yaml.Event) -> None:
-        handler = self.handlers.get(type(event))
-        if handler is not None:
-            handler(event)
-
     def document(self, event: yaml.DocumentStartEvent) -> None:
         self.documents += 1
         if self.documents > 1:
@@ -229,7 +224,7 @@ class _Composer:
         elif key is not _NO_KEY:
             top.value[key] = value
 
-    def put_key(self, top: _Frame, key: Any, mark: Any, node_path: PathKey) -> None:
+    def put_key(self, top: _Frame, key: Any, mark: Any) -> None:
         if key is _NO_KEY:
             top.key = _NO_KEY
             return
@@ -255,7 +250,7 @@ class _Composer:
             if event.tag is None and event.implicit[0] and event.value == "<<":
                 top.key = _MERGE
             else:
-                self.put_key(top, _NO_KEY if value is _NO_KEY else event.value, event.start_mark, path)
+                self.put_key(top, _NO_KEY if value is _NO_KEY else event.value, event.start_mark)
             if event.anchor is not None:
                 self.anchors[event.anchor] = (event.value, path, 1)
             return
@@ -332,7 +327,7 @@ class _Composer:
         if is_key:
             top = self.stack[-1]
             if isinstance(value, str):
-                self.put_key(top, value, event.start_mark, path)
+                self.put_key(top, value, event.start_mark)
             else:
                 self.error(event.start_mark, path, "expected a plain key, found an alias to a "
                            "non-text value")

@@ -29,18 +29,11 @@ import numpy as np
 
 from .geometry import HoleShape, trimesh_to_manifold
 from .pieces import ConvexPiece
+from .primitive_pieces import _hull_piece
 
 
 def _points(solid) -> np.ndarray:
     return np.asarray(solid.to_mesh64().vert_properties, dtype=float)[:, :3]
-
-
-def _hull_piece(points: np.ndarray, name: str) -> ConvexPiece:
-    pts = np.asarray(points, dtype=float)
-    centre = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
-    T = np.eye(4)
-    T[:3, 3] = centre
-    return ConvexPiece(kind="hull", T_part_piece=T, vertices_m=pts - centre, name=name)
 
 
 def _trim(solid, normal: np.ndarray, offset: float):

@@ -466,10 +466,6 @@ def _bsp_pieces(body: BodyShape, holes: list[HoleShape], sides: dict[str, HoleSi
     return [_hull_piece(p, f"{name}/bsp{i}") for i, p in enumerate(pieces)]
 
 
-def _manifold_points(solid) -> np.ndarray:
-    return np.asarray(solid.to_mesh64().vert_properties, dtype=float)[:, :3]
-
-
 def _holes_touching(body: BodyShape, holes: tuple[HoleShape, ...], tol_m: float) -> list[HoleShape]:
     from .geometry import body_solid, hole_solid
 

@@ -76,11 +76,6 @@ class SE3Bounds:
         """Whether point ``p`` (3,) lies inside the bounds."""
         return bool(np.all(p >= self.low_m) and np.all(p <= self.high_m))
 
-    @property
-    def extent_m(self) -> float:
-        """Length of the diagonal, m."""
-        return float(np.linalg.norm(self.high_m - self.low_m))
-
 
 @dataclass(frozen=True, eq=False)
 class OmplResult:

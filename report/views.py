@@ -84,14 +84,6 @@ class Views:
         color = (float(rgba[0]), float(rgba[1]), float(rgba[2]), float(rgba[3]))
         return SceneItem(self.mesh(part), np.asarray(T_world_part, float), color, name=part)
 
-    def gripper_item(self, step: Step, T_world_part: np.ndarray, opening: str) -> SceneItem:
-        grasp = step.grasp
-        assert grasp is not None
-        half = (grasp.open_width_m if opening == "open" else grasp.width_m) / 2.0
-        mesh = pieces_mesh(gripper_model(self.product.gripper_for(step.part), half))
-        return SceneItem(mesh, np.asarray(T_world_part) @ grasp.T_part_gripper, GRIPPER_RGBA,
-                         name="gripper")
-
     def arm_states(self, step: Step) -> dict[str, np.ndarray]:
         """The arm's joint angles (6,) at the pick (the clamp's start), pre-insertion (the
         lowering's start) and inserted (the release's start) views; empty without an arm."""

@@ -67,7 +67,7 @@ from numpy.typing import ArrayLike
 from ..errors import AsmplanError
 from ..knowledge.frames import invert
 from ..parts.pieces import ConvexPiece
-from ..planner.trajectory import matrix_from_quat_xyzw, quat_xyzw_from_matrix
+from ..planner.trajectory import quat_xyzw_from_matrix
 from .fidelity import Fidelity
 
 
@@ -157,18 +157,10 @@ def pose_to_pq(T: np.ndarray) -> tuple[list[float], list[float]]:
     return T[:3, 3].tolist(), quat_xyzw_from_matrix(T[:3, :3]).tolist()
 
 
-def pq_to_pose(position: Sequence[float], quat_xyzw: Sequence[float]) -> np.ndarray:
-    """(position (3,), quaternion xyzw (4,)) -> (4, 4) homogeneous transform."""
-    T = np.eye(4)
-    T[:3, :3] = matrix_from_quat_xyzw(np.asarray(quat_xyzw, dtype=float))
-    T[:3, 3] = position
-    return T
-
-
 def _pose_from_bullet(position: Sequence[float], quat_xyzw: Sequence[float], units_per_m: float
                       ) -> np.ndarray:
-    """:func:`pq_to_pose` for PyBullet's own unit quaternions (its C conversion, ~10x faster
-    in the per-step loop)."""
+    """(position, quaternion xyzw) from PyBullet, in its units, -> (4, 4) transform in metres
+    (PyBullet's own C conversion of its unit quaternions, ~10x faster in the per-step loop)."""
     T = np.eye(4)
     T[:3, :3] = np.reshape(pybullet.getMatrixFromQuaternion(quat_xyzw), (3, 3))
     T[:3, 3] = position
@@ -981,14 +973,6 @@ class BulletWorld:
         """Total mass of a body, kg (0 for static bodies)."""
         return self._bodies[body].mass_kg
 
-    def body_inertia_kgm2(self, body: int) -> np.ndarray:
-        """Inertia tensor about the centre of mass, body axes, (3, 3) kg m^2 (parts only)."""
-        return self._bodies[body].inertia_kgm2.copy()
-
-    def body_com_m(self, body: int) -> np.ndarray:
-        """Centre of mass of a body's base in its link frame, (3,) m."""
-        return self._bodies[body].T_link_inertial[:3, 3].copy()
-
     def contact_breaking_m(self, body: int, other: int | None = None) -> float:
         """Largest distance (m) at which Bullet creates or keeps a contact point between
         ``body`` and ``other`` (any body when None): the world's breaking fraction times the
@@ -1270,12 +1254,6 @@ class BulletWorld:
         ps = np.array(self._joint_scales(body, joints)[0])
         return (np.array([s[0] for s in st], dtype=float) / ps,
                 np.array([s[1] for s in st], dtype=float) / ps)
-
-    def joint_velocities(self, body: int, joints: Sequence[int]) -> np.ndarray:
-        """Joint velocities (m/s or rad/s), (len(joints),)."""
-        st = pybullet.getJointStates(body, list(joints), physicsClientId=self.client_id)
-        ps, _ = self._joint_scales(body, joints)
-        return np.array([s[1] for s in st], dtype=float) / np.array(ps)
 
     def apply_force(
         self, body: int, link: int, force_N: Sequence[float] | np.ndarray,

@@ -357,19 +357,6 @@ class Gripper:
         """"force" or "open"."""
         return self._mode
 
-    # ---------------------------------------------------------------- measurement
-    def clamp_forces_N(self, part_body: int) -> np.ndarray:
-        """Measured clamp force of finger 1 and finger 2 on ``part_body``, (2,) N.
-
-        Sum of the normal forces of the contact points between each pad and the part.
-        """
-        return np.array(
-            [
-                self.world.contacts(self.body, part_body, link_a=link).normal_force_sum_N()
-                for link in FINGER_LINKS
-            ]
-        )
-
 
 class CoupledGripper(Gripper):
     """A :class:`~asmplan.sim.gripper.Gripper` whose fingers are coupled like a synchronised
