@@ -128,16 +128,22 @@ def _check_step_frame(path: Path) -> None:
                             "the file looks truncated")
 
 
-def _step_scene(path: Path, step_deflection_m: float):
-    """A STEP file as a trimesh Scene through cascadio (metres; OpenCASCADE meshes in mm)."""
-    import trimesh
-
+def _require_step_reader(path: Path) -> None:
+    """Register cascadio's STEP loader with trimesh (the optional extra ``step``) and check
+    the file's frame, before a STEP file is read."""
     try:
         import cascadio  # noqa: F401  (registers the STEP loader with trimesh)
     except ImportError:
         raise MeshFileError(path, "reading STEP needs the optional extra: pip install "
                             "'asmplan[step]' (cascadio)") from None
     _check_step_frame(path)
+
+
+def _step_scene(path: Path, step_deflection_m: float):
+    """A STEP file as a trimesh Scene through cascadio (metres; OpenCASCADE meshes in mm)."""
+    import trimesh
+
+    _require_step_reader(path)
     try:
         return trimesh.load(str(path), force="scene", tol_linear=step_deflection_m * 1e3)
     except FileNotFoundError:
@@ -176,12 +182,7 @@ def _read(path: Path, step_deflection_m: float):
     suffix = path.suffix.lower()
     is_step = suffix in _STEP_SUFFIXES
     if is_step:
-        try:
-            import cascadio  # noqa: F401  (registers the STEP loader with trimesh)
-        except ImportError:
-            raise MeshFileError(path, "reading STEP needs the optional extra: pip install "
-                                "'asmplan[step]' (cascadio)") from None
-        _check_step_frame(path)
+        _require_step_reader(path)
     try:
         # OpenCASCADE meshes in millimetres whatever the file's unit
         extra: dict[str, Any] = {"tol_linear": step_deflection_m * 1e3} if is_step else {}
