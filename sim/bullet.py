@@ -52,11 +52,12 @@ slope for every kind of collider this module builds, in both creation orders).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import shutil
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Literal
@@ -94,6 +95,27 @@ def _import_pybullet_quietly():
 
 
 pybullet = _import_pybullet_quietly()
+
+
+@contextlib.contextmanager
+def _fd_to_devnull(fd: int) -> Iterator[None]:
+    """Point file descriptor ``fd`` at /dev/null for the block (C code's prints)."""
+    import sys
+
+    stream = sys.stdout if fd == 1 else sys.stderr
+    try:
+        stream.flush()
+        saved = os.dup(fd)
+    except (OSError, ValueError):
+        yield
+        return
+    try:
+        with open(os.devnull, "wb") as devnull:
+            os.dup2(devnull.fileno(), fd)
+            yield
+    finally:
+        os.dup2(saved, fd)
+        os.close(saved)
 
 MAX_COMPOUND_CHILDREN = 16
 """PyBullet drops compound children beyond this count silently."""
@@ -575,6 +597,12 @@ class BulletWorld:
             enableFileCaching=0,
             physicsClientId=cid,
         )
+        if fidelity.constraint_solver == "dantzig":
+            # PyBullet announces the switch on stdout from C: keep it out of the CLI's output
+            with _fd_to_devnull(1):
+                pybullet.setPhysicsEngineParameter(
+                    constraintSolverType=pybullet.CONSTRAINT_SOLVER_LCP_DANTZIG,
+                    physicsClientId=cid)
 
     # ---------------------------------------------------------------- lifecycle
     def __enter__(self) -> BulletWorld:
@@ -1144,6 +1172,34 @@ class BulletWorld:
             return len(pybullet.getContactPoints(bodyA=body_a, physicsClientId=self.client_id))
         return len(pybullet.getContactPoints(bodyA=body_a, linkIndexA=link_a,
                                              physicsClientId=self.client_id))
+
+    def gap_m(self, body: int, link: int, max_distance_m: float,
+              direction: Sequence[float] | None = None) -> float:
+        """Smallest distance (m) from one link of ``body`` to any other body, as Bullet's
+        closest points measure it (negative when penetrating), or ``inf`` when nothing is
+        within ``max_distance_m``. Candidates come from the broad phase (the link's bounding
+        box grown by ``max_distance_m``), so the cost is that of the few bodies near it.
+        With ``direction`` (world, unit), only points ahead of a motion along it count
+        (normal within 60 deg of facing it): a pad sliding on a table is not "in front" of it.
+
+        Used to bring a moving link into contact without an impact: Bullet creates a
+        contact only within the pair's breaking distance (25 um at BALANCED, see the module
+        docstring), so a link moving farther than that in one step enters a body before
+        the solver sees it (a pad closing at 50 mm/s: 50 um per 1 ms step)."""
+        cid = self.client_id
+        grow = self._S * float(max_distance_m)
+        lo, hi = pybullet.getAABB(body, link, physicsClientId=cid)
+        near = pybullet.getOverlappingObjects([v - grow for v in lo], [v + grow for v in hi],
+                                              physicsClientId=cid) or ()
+        best = math.inf
+        for other in sorted({b for b, _ in near if b != body and b != self._probe}):
+            pts = pybullet.getClosestPoints(body, other, grow, linkIndexA=link,
+                                            physicsClientId=cid)
+            for p in pts:
+                if direction is not None and float(np.dot(p[7], direction)) > -0.5:
+                    continue
+                best = min(best, p[8] / self._S)
+        return best
 
     def max_penetration_m(self, body_a: int) -> float:
         """Deepest penetration among body A's contact points after the last step, m (0 when

@@ -36,6 +36,8 @@ from dataclasses import dataclass
 from ..parts.pieces import LevelOfDetail
 
 _LODS = ("exact", "convex", "coarse")
+CONSTRAINT_SOLVERS = ("sequential_impulse", "dantzig")
+"""Values of :attr:`Fidelity.constraint_solver`."""
 
 
 @dataclass(frozen=True)
@@ -113,6 +115,18 @@ class Fidelity:
         FAST keeps metres (1.0): its resolvable clearance is 0.4 mm, and at 1/240 s a body
         steps 0.4 mm into a contact, which the 1 mm margin absorbs (in millimetres a FAST pin
         entered a hole's wall by 2-3 mm).
+    constraint_solver : {"sequential_impulse", "dantzig"}
+        Bullet's constraint solver. "sequential_impulse" (every preset): projected
+        Gauss-Seidel, ``solver_iterations`` sweeps per step. It does not converge where two
+        contact normals nearly oppose each other, as in a peg wedged at a small tilt (the
+        contact matrix's condition number grows as 4 / t^2, 52,000 at 0.5 deg): the unresolved
+        push leaves 5-27 um of penetration across the wedge, which Whitney's geometry
+        magnifies by 1 / sin t into +0.07 mm (5 deg) to +3.3 mm (0.5 deg) of jam depth at
+        BALANCED. "dantzig": Bullet's direct MLCP solver (``CONSTRAINT_SOLVER_LCP_DANTZIG``),
+        exact to the contact slop on that wedge, but its box friction does not hold a part in
+        a two-finger grip the way the cone does (slip threshold +11.5 %, a gripped pin dropped
+        during a BALANCED insertion): a reference for contact geometry, not a preset's choice
+        (docs/physics.md, "Jam depth at small tilts").
 """
 
     name: str
@@ -131,6 +145,7 @@ class Fidelity:
     dynamic_partners: bool = True
     friction_anchor: bool = False
     bullet_units_per_m: float = 1000.0
+    constraint_solver: str = "sequential_impulse"
 
     def __post_init__(self) -> None:
         def positive(label: str, value: float) -> None:
@@ -157,6 +172,11 @@ class Fidelity:
         nonneg("spinning_friction", self.spinning_friction)
         nonneg("collision_margin_m", self.collision_margin_m)
         positive("bullet_units_per_m", self.bullet_units_per_m)
+        if self.constraint_solver not in CONSTRAINT_SOLVERS:
+            raise ValueError(
+                f"Fidelity.constraint_solver: expected one of {list(CONSTRAINT_SOLVERS)}, found "
+                f"{self.constraint_solver!r}"
+            )
         if self.geometry_lod not in _LODS:
             raise ValueError(
                 f"Fidelity.geometry_lod: expected one of {list(_LODS)}, found "

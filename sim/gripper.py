@@ -34,6 +34,10 @@ from ..parts.pieces import ConvexPiece
 from ..planner.trajectory import quat_xyzw_from_matrix
 from .bullet import BulletWorld, LinkSpec
 
+TOUCH_RAMP_S = 0.01
+"""Time over which the squeeze rises to the command once both pads touch, s
+(:meth:`Gripper._touch_ramp`)."""
+
 FINGER_LINKS: tuple[int, int] = (0, 1)
 """PyBullet link indices of finger 1 (+y) and finger 2 (-y)."""
 
@@ -224,6 +228,7 @@ class Gripper:
         self._lift_N = (-total_kg * world.gravity_mps2).tolist()
         self._mode = "open"
         self._touching = False
+        self._touch_step: int | None = None
         self._torque = False
         q0 = self.travel_for_opening(spec.max_opening_m if opening_m is None else opening_m)
         world.reset_joints(self.body, FINGER_LINKS, [q0, q0])
@@ -297,18 +302,60 @@ class Gripper:
             self._touching = all(
                 self.world.contact_count(self.body, link_a=link) > 0 for link in FINGER_LINKS
             )
+            if self._touching:
+                self._touch_step = self.world.step_count
         if v is None or self._touching:
             if self._mode != "force" or not self._torque:
                 self.world.disable_motors(self.body, FINGER_LINKS)
                 self._torque = True
             # one call per step: PyBullet adds repeated TORQUE_CONTROL forces within a step
-            self.world.set_joint_forces(self.body, FINGER_LINKS, self._finger_forces(force_N))
+            self.world.set_joint_forces(self.body, FINGER_LINKS,
+                                        self._finger_forces(force_N * self._touch_ramp()))
         else:
             self.world.set_joint_velocity_targets(
-                self.body, FINGER_LINKS, (v, v), (force_N, force_N)
+                self.body, FINGER_LINKS, self._approach_speeds_mps(v), (force_N, force_N)
             )
             self._torque = False
         self._mode = "force"
+
+    def _touch_ramp(self) -> float:
+        """Fraction (0..1] of the commanded squeeze applied: it rises linearly over
+        :data:`TOUCH_RAMP_S` after the pads first touch in a clamp.
+
+        Bullet's first contact between a pad and a round part is ONE point (GJK's closest
+        point; the line contact fills in over the next steps). With the full force at once,
+        the two pads' single points at opposite ends of a 10 mm pin made a couple that
+        tipped it by ~6 mrad in one 1 ms step: 60-75 um of pad penetration."""
+        if self._touch_step is None:
+            return 1.0
+        dt = self.world.fidelity.dt_s
+        return min(1.0, (self.world.step_count - self._touch_step + 1) * dt / TOUCH_RAMP_S)
+
+    def _approach_speeds_mps(self, v: float) -> tuple[float, float]:
+        """Closing speed of each finger for the next step: ``v``, but never farther than the
+        pad's gap to what lies ahead of it (:meth:`BulletWorld.gap_m` along its closing
+        direction), so that a pad arrives touching instead of inside the part.
+
+        Bullet creates a contact only within the pair's breaking distance (25 um at
+        BALANCED, in millimetre units); a pad closing at 50 mm/s moves 50 um per 1 ms step,
+        so it entered the part before the solver saw the contact: 24 um at first contact,
+        then up to 109 um as the one-point contacts at opposite ends of the two pads tipped
+        a 10 mm pin (bench pin insertion: 68-70 um of "fit" penetration, all of it at the
+        pads; 15-35 um in metre units, whose breaking distance is ten times larger). The
+        arrival is as fast as before (the last step covers the remaining gap plus the
+        preset's contact slop)."""
+        w = self.world
+        dt = w.fidelity.dt_s
+        R = self.tcp_pose()[:3, :3]
+        look = 2.0 * v * dt
+        # ... plus the contact slop: some pairs (box on box) report a contact only once they
+        # overlap, so the pad must end its last step that little inside
+        slop = w.fidelity.contact_slop_m
+        out = []
+        for link, sign in zip(FINGER_LINKS, (1.0, -1.0), strict=True):
+            gap = w.gap_m(self.body, link, look, direction=R @ np.array([0.0, -sign, 0.0]))
+            out.append(v if not math.isfinite(gap) else min(v, (max(gap, 0.0) + slop) / dt))
+        return out[0], out[1]
 
     def load_along_closing_N(self) -> float:
         """Weight and inertia of the held load (part + both fingers) along the TCP's +y axis
@@ -350,6 +397,7 @@ class Gripper:
         )
         self._mode = "open"
         self._touching = False
+        self._touch_step = None
         self._torque = False
 
     @property
