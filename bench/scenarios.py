@@ -36,6 +36,7 @@ from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.execute import execute_step
 from asmplan.sim.fidelity import Fidelity
 from asmplan.sim.gripper import CoupledGripper, Gripper, GripperSpec
+from asmplan.sim.pose_error import PoseError, apply_pose_error
 from asmplan.sim.records import StepOutcome, StepRecord, SuccessCriteria
 
 G = 9.81
@@ -190,12 +191,56 @@ def constant_acceleration_lift(T_tcp: np.ndarray, force_N: float, accel_mps2: fl
     return Trajectory(t_s=t, T_world_gripper=T, clamp_force_N=f, phases=phases)
 
 
+def lift_profile(accel_mps2: float) -> tuple[float, float]:
+    """(lift_s, decel_mps2) of :func:`constant_acceleration_lift` for ``accel_mps2``: 0.2 s
+    of acceleration up to 5 m/s^2, shorter above so that the top speed stays 1 m/s or
+    less... but never under 0.1 s (20 m/s^2: 2 m/s), so that a force 0.6 % short of the
+    threshold still slips 0.5 (0.006 (g + a)) T^2 >= 0.9 mm, past the 0.2 mm slip limit;
+    braking at ``v_top / 0.3 s`` (at least 2, at most 7.5 m/s^2 < g: the part stays pressed
+    down in the grip while the lift slows)."""
+    lift_s = 0.2 if accel_mps2 <= 5.0 else max(0.1, 1.0 / accel_mps2)
+    v_top = accel_mps2 * lift_s
+    return lift_s, min(7.5, max(2.0, v_top / 0.3))
+
+
 def lift_slip_m(fidelity: Fidelity, part: BoxPart, force_N: float, accel_mps2: float) -> float:
-    """Largest slip (m) of ``part`` in the fingers, lifted at ``accel_mps2`` with ``force_N``."""
+    """Largest slip (m) of ``part`` in the fingers, lifted from the table at ``accel_mps2``
+    with ``force_N`` (:func:`lift_profile`). ``accel_mps2`` = 0 is :func:`hold_slip_m` (a
+    part lifted at no acceleration never leaves the table)."""
+    if accel_mps2 == 0.0:
+        return hold_slip_m(fidelity, part, force_N)
+    lift_s, decel = lift_profile(accel_mps2)
     with BulletWorld(fidelity) as world:
         body, gripper, T_tcp = add_box_and_gripper(world, part)
         _, outcome = execute_step(world, gripper, body,
-                                  constant_acceleration_lift(T_tcp, force_N, accel_mps2))
+                                  constant_acceleration_lift(T_tcp, force_N, accel_mps2,
+                                                             lift_s=lift_s, decel_mps2=decel))
+    return float(outcome.max_slip_m)
+
+
+HOLD_LIFT_M = 0.002
+HOLD_LIFT_S = 1.2
+
+
+def hold_slip_m(fidelity: Fidelity, part: BoxPart, force_N: float, hold_s: float = 0.3
+                ) -> float:
+    """Largest slip (m) of ``part`` clamped on the table with ``force_N``, lifted
+    :data:`HOLD_LIFT_M` by a minimum-jerk move over :data:`HOLD_LIFT_S` (peak acceleration
+    5.77 h / T^2 = 0.008 m/s^2, 0.08 % of g) and held still in the air for ``hold_s``: the
+    a = 0 case, whose holding force is ``m g / (2 mu)``. A part squeezed in the air from
+    rest instead falls for the few milliseconds the squeeze takes to rise and slides on
+    (+9-12 % apparent threshold)."""
+    with BulletWorld(fidelity) as world:
+        body, gripper, T_tcp = add_box_and_gripper(world, part)
+        up = T_tcp.copy()
+        up[2, 3] += HOLD_LIFT_M
+        traj = trajectory_from_segments(T_tcp, (
+            Segment("clamp", 0.1, T_tcp, 0.0, force_N),
+            Segment("hold", 0.2, T_tcp, force_N, force_N),
+            Segment("lift", HOLD_LIFT_S, up, force_N, force_N),
+            Segment("translate", hold_s, up, force_N, force_N),
+        ))
+        _, outcome = execute_step(world, gripper, body, traj)
     return float(outcome.max_slip_m)
 
 
@@ -222,12 +267,13 @@ class PinHole:
 
 
 def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_m: float = 0.0,
-                  scene: PinHole | None = None, criteria: SuccessCriteria | None = None
-                  ) -> tuple[StepRecord, StepOutcome]:
+                  scene: PinHole | None = None, criteria: SuccessCriteria | None = None,
+                  pose_error: PoseError | None = None) -> tuple[StepRecord, StepOutcome]:
     """Pick a standing pin, carry it over the hole and insert it along -z.
 
     ``radial_clearance_m`` < 0 makes an interference fit; ``lateral_offset_m`` shifts the
-    place pose along x (no chamfer anywhere).
+    place pose along x (no chamfer anywhere); ``pose_error`` is the robot's error at the
+    insertion (:func:`asmplan.sim.pose_error.apply_pose_error`).
     """
     s = scene or PinHole()
     r_pin = s.hole_radius_m - radial_clearance_m
@@ -268,6 +314,8 @@ def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_
             Segment("release", 0.2, seat, F, 0.0),
             Segment("retreat", 0.3, retreat, 0.0, 0.0),
         ))
+        if pose_error is not None:
+            traj = apply_pose_error(traj, (0.0, 0.0, -1.0), pose_error)
         target = np.eye(4)
         target[:3, 3] = [x, y, seated_centre_z]
         return execute_step(world, gripper, pin, traj, criteria=criteria,
@@ -378,7 +426,9 @@ __all__ = [
     "cylinder_inertia",
     "entered_depth_m",
     "held_drift_m",
+    "hold_slip_m",
     "jam_depth_m",
+    "lift_profile",
     "lift_slip_m",
     "pin_insertion",
     "pose",

@@ -79,8 +79,9 @@ def _bounds() -> tuple[Bound, ...]:
                          "preset); the planner's predicted profile is compared with the "
                          "paper's Table 4 in seed_profile_error_N"))
         out.append(Bound("slip_threshold_error", p, 0.03, "",
-                         "measured within 0.4 % (docs/physics.md); 3 % = 5 bisection steps of "
-                         "0.6 %, well inside the 10 % the slip tests allow"))
+                         "a = 0, 5, 20 m/s^2 (and 2 in tests): measured -1.4 to +0.4 % "
+                         "(docs/physics.md); 3 % = 5 bisection steps of 0.6 %, well inside the "
+                         "10 % the slip tests allow"))
         out.append(Bound("insertion_outcome_mismatch", p, 0.0, "",
                          "a fit at or above the preset's min_resolvable_clearance_m must be "
                          "judged as the reference judges it (sim/fidelity.py)"))
@@ -96,12 +97,18 @@ def _bounds() -> tuple[Bound, ...]:
               "ACCURATE penetrates 3-10 um; 2x the worst measured"),
         Bound("fit_penetration_m", "fast", 0.5e-3, "m",
               "measured 0.15-0.25 mm; 0.5 mm is the success criteria's penetration limit"),
-        Bound("fit_penetration_m", "balanced", 0.1e-3, "m",
-              "measured 15-35 um in metre units; 68-70 um since BALANCED simulates in millimetres "
-              "(issue 16; cause not yet found, see docs/physics.md): bound at 1.4x that"),
+        Bound("fit_penetration_m", "balanced", 0.05e-3, "m",
+              "measured 4-28 um (the largest: the released pin dropping 0.2 mm onto the hole "
+              "floor); the 68-70 um of session 4 were the pads closing into the pin, fixed "
+              "(docs/physics.md, 'Fit penetration')"),
         Bound("fit_penetration_m", "accurate", 0.02e-3, "m",
               "measured 3-10 um (docs/physics.md)"),
     ]
+    out.append(Bound("jam_depth_exact_solver_error_m", "balanced", 0.1e-3, "m",
+                     "issue 16: the jam scene with Bullet's direct solver at BALANCED's time "
+                     "step, slop 0.1 um: Whitney's l* within 0.1 mm at every tilt 0.5-5 deg for "
+                     "c >= 0.05 mm (measured |error| <= 0.066 mm): proves the scene and the "
+                     "geometry; the preset's own error at small tilts is its iterative solver"))
     for p in ("balanced", "accurate"):
         out.append(Bound("jam_depth_error_m", p, 0.1e-3, "m",
                          "issue 16: Whitney's l* = (D - d cos t) / sin t within 0.1 mm for "
@@ -127,12 +134,20 @@ BOUNDS: tuple[Bound, ...] = _bounds()
 # scenarios (the physics validation scenes of tests/sim)
 
 
+SLIP_ACCELS_MPS2: tuple[float, ...] = (0.0, 5.0, 20.0)
+"""Vertical accelerations of the slip-threshold scenes (issue 16): 0 = held still in the air
+after a slow lift (:func:`bench.scenarios.hold_slip_m`), 5 and 20 = lifted off the table
+(:func:`bench.scenarios.lift_profile`)."""
+
+
 def slip_threshold_error(fidelity: Any, accel_mps2: float = 2.0, iterations: int = 8,
                          slip_limit_m: float = 0.2e-3) -> float:
     """Relative error of the bisected minimum holding force against ``m (g + a) / (2 mu)``.
 
-    A 100 g box, mu = 1.0 (pads) x 0.5; bracket [0.5, 2] x analytic, ``iterations`` halvings
-    (8: a step of 0.6 %).
+    A 100 g box, mu = 1.0 (pads) x 0.5, fingers closing along a horizontal axis, the part
+    accelerated vertically (so its weight and inertia, ``m (g + a)``, are carried by the two
+    pads' friction, ``2 mu F``); bracket [0.5, 2] x analytic, ``iterations`` halvings (8: a
+    step of 0.6 %).
     """
     from .scenarios import BoxPart, G, lift_slip_m
 
@@ -263,10 +278,13 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
         _, seed, _ = run_seed_cycle(fid)
         figures.append(AccuracyFigure(name, "seed clamp cycle (4 s)", "seed_force_mae_N",
                                       float(seed.clamp_force_mae_N), "N", time.perf_counter() - t0))
-        t0 = time.perf_counter()
-        err = slip_threshold_error(fid)
-        figures.append(AccuracyFigure(name, "slip threshold, a = 2 m/s^2 (8 bisection runs)",
-                                      "slip_threshold_error", err, "", time.perf_counter() - t0))
+        for a in SLIP_ACCELS_MPS2:
+            t0 = time.perf_counter()
+            err = slip_threshold_error(fid, a)
+            what = "held in the air: m g / (2 mu)" if a == 0 else "lifted: m (g + a) / (2 mu)"
+            figures.append(AccuracyFigure(name, f"slip threshold, a = {a:g} m/s^2 (8 bisection "
+                                          f"runs)", "slip_threshold_error", err, "",
+                                          time.perf_counter() - t0, note=what))
         for c, ref in zip(cases, reference, strict=True):
             run = pin_insertion(fid, c)
             resolvable = 2 * abs(c) >= fid.min_resolvable_clearance_m - 1e-12
@@ -296,6 +314,13 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
 JAM_CLEARANCES_M: tuple[float, ...] = (0.01e-3, 0.05e-3, 0.1e-3, 0.5e-3)
 JAM_TILTS_DEG: tuple[float, ...] = (0.5, 1.0, 2.0, 5.0)
 DRIFT_TILTS_RAD: tuple[float, ...] = (0.0, 0.1, math.pi / 2)
+
+
+def exact_solver_fidelity(fid: Any) -> Any:
+    """``fid`` with Bullet's direct MLCP solver (Dantzig) and a 0.1 um contact slop: the
+    jam scene's geometric reference (sim/fidelity.py, ``constraint_solver``)."""
+    return dataclasses.replace(fid, name=f"{fid.name}+dantzig", constraint_solver="dantzig",
+                               contact_slop_m=1e-7)
 
 
 def contact_figures(fid: Any) -> list[AccuracyFigure]:
@@ -331,6 +356,17 @@ def contact_figures(fid: Any) -> list[AccuracyFigure]:
                 "jam_depth_error_m", got - ref, "m", wall, asserted,
                 f"l* = {ref * 1e3:.3f} mm, simulated {got * 1e3:.3f} mm; PyBullet "
                 f"{wall / JamScene().settle_s:.2f} wall s per simulated s"))
+            if fid.name == "balanced":
+                exact = exact_solver_fidelity(fid)
+                t0 = time.perf_counter()
+                got_x = jam_depth_m(exact, c, t)
+                wall_x = time.perf_counter() - t0
+                out.append(AccuracyFigure(
+                    fid.name, f"Whitney jam, direct (Dantzig) solver, slop 0.1 um: c = "
+                    f"{c * 1e3:.2f} mm, t = {t_deg:g} deg", "jam_depth_exact_solver_error_m",
+                    got_x - ref, "m", wall_x, c >= 0.05e-3 - 1e-12,
+                    f"simulated {got_x * 1e3:.3f} mm: the scene's geometry (peg, hole, depth "
+                    f"measure) is exact; BALANCED's error above is its iterative solver"))
             if fid.name == "balanced" and peers.available():
                 mj, mj_cost = peers.mujoco_jam_depth_m(fid.dt_s, c, t)
                 out.append(AccuracyFigure(
@@ -830,7 +866,8 @@ def format_accuracy(acc: AccuracyResult, bounds: Sequence[Bound] | None = None) 
 
 def format_accuracy_summary(acc: AccuracyResult) -> str:
     """Markdown: one row per preset with the headline figures and the cost."""
-    lines = ["| preset | clamp-force MAE (N) | slip threshold error | worst depth error, resolved (mm) "
+    lines = ["| preset | clamp-force MAE (N) | worst slip threshold error (a = 0 / 5 / 20 m/s^2) "
+             "| worst depth error, resolved (mm) "
              "| worst fit penetration (mm) | wall: seed cycle / pin insertion (s) |",
              "| --- | ---: | ---: | ---: | ---: | ---: |"]
     for p in dict.fromkeys(f.preset for f in acc.figures):
@@ -842,8 +879,10 @@ def format_accuracy_summary(acc: AccuracyResult) -> str:
         depth = [abs(f.value) for f in fs if f.figure == "insertion_depth_error_m" and f.asserted]
         pen = [f.value for f in fs if f.figure == "fit_penetration_m" and f.asserted]
         ins = [f.wall_s for f in fs if f.figure == "insertion_depth_error_m"]
+        slip = max((f.value for f in fs if f.figure == "slip_threshold_error"), key=abs,
+                   default=float("nan"))
         lines.append(f"| {p} | {one('seed_force_mae_N').value:.5f} | "
-                     f"{one('slip_threshold_error').value * 100:+.2f} % | "
+                     f"{slip * 100:+.2f} % | "
                      f"{max(depth, default=float('nan')) * 1e3:.3f} | "
                      f"{max(pen, default=float('nan')) * 1e3:.3f} | "
                      f"{one('seed_force_mae_N').wall_s:.2f} / {statistics.median(ins):.2f} |")

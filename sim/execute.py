@@ -44,10 +44,17 @@ from ..planner.trajectory import (
     quat_xyzw_from_matrix,
     rotation_angle_rad,
 )
-from .bullet import BulletWorld
+from .bullet import BulletWorld, Contacts
 from .gripper import FINGER_LINKS, Gripper
 from .records import HELD_PHASES, StepOutcome, StepRecord, SuccessCriteria
-from .verdicts import Failure, FailureCode, SceneGuard, classify_insertion
+from .verdicts import (
+    ContactEvidence,
+    Failure,
+    FailureCode,
+    SceneGuard,
+    classify_insertion,
+    two_point_contacts,
+)
 
 _SPEED_MARGIN_MPS = 0.1
 
@@ -238,6 +245,7 @@ def execute_step(
     g_norm = float(np.linalg.norm(world.gravity_mps2))
     z_top = {b: float(world.com_position_m(b)[2]) for b in watched}
     stop: Failure | None = None
+    lower_contacts: dict[int, Contacts] = {}  # record row -> the part's non-finger contacts
     wall0 = time.perf_counter()
     r = 0
     for i in range(n_steps):
@@ -308,7 +316,10 @@ def execute_step(
             float(np.sum(con.normal_force_N[is_finger & (con.link_b == link)]))
             for link in FINGER_LINKS
         ]
-        external = con.select(~is_finger).force_on_a_N()
+        others = con.select(~is_finger)
+        external = others.force_on_a_N()
+        if is_lower[i] and axis is not None:
+            lower_contacts[r] = others
         v, w = world.velocity(part_body)
         ke = world.kinetic_energy_J(part_body, (v, w), T_part)
         T_grip = _finger_frame(T_tcp, travel)
@@ -361,7 +372,16 @@ def execute_step(
         peak_insertion_force_between_N=peak_insert_between,
         max_penetration_between_m=pen_between,
     )
-    failures = _failures(record, outcome, crit, target, axis, insertion_length_m, stop)
+    def evidence(row: int) -> tuple[ContactEvidence, ...]:
+        con = lower_contacts.get(row)
+        if con is None or axis is None or con.count == 0:
+            return ()
+        names_b = [world.body_name(int(b)) for b in con.body_b]
+        return two_point_contacts(names_b, con.position_on_b_m, con.normal_on_b,
+                                  con.normal_force_N, record.T_world_part[row][:3, 3], axis)
+
+    failures = _failures(record, outcome, crit, target, axis, insertion_length_m, stop,
+                         evidence)
     if failures:
         outcome = replace(outcome, success=False, failures=failures,
                           reasons=tuple(f.message for f in failures) + outcome.reasons)
@@ -376,8 +396,11 @@ gap on one side without being captured."""
 
 def _failures(record: StepRecord, outcome: StepOutcome, crit: SuccessCriteria,
               target: np.ndarray | None, axis: np.ndarray | None,
-              insertion_length_m: float | None, stop: Failure | None) -> tuple[Failure, ...]:
-    """The typed causes of a failed step (:mod:`asmplan.sim.verdicts`)."""
+              insertion_length_m: float | None, stop: Failure | None,
+              evidence: Callable[[int], tuple[ContactEvidence, ...]] | None = None
+              ) -> tuple[Failure, ...]:
+    """The typed causes of a failed step (:mod:`asmplan.sim.verdicts`); ``evidence(row)``
+    gives the contacts holding the part at a record row of "lower"."""
     out: list[Failure] = [] if stop is None else [stop]
     if outcome.success and stop is None:
         return ()
@@ -404,9 +427,11 @@ def _failures(record: StepRecord, outcome: StepOutcome, crit: SuccessCriteria,
         entered = float(insertion_length_m - ax[j])
         T = record.T_world_part[lower][j]
         tilt = float(rotation_angle_rad(target[:3, :3].T @ T[:3, :3]))
+        row = int(np.flatnonzero(lower)[j])
         out.append(classify_insertion(entered, insertion_length_m,
                                       min(RIM_DEPTH_M, 0.1 * insertion_length_m), tilt,
-                                      float(record.lateral_error_m[lower][j])))
+                                      float(record.lateral_error_m[lower][j]),
+                                      evidence(row) if evidence is not None else (), axis))
     return tuple(out)
 
 

@@ -5,7 +5,10 @@ A :class:`Failure` names a cause a cell engineer recognises, with the number tha
 * ``rim_stop``  the insertion never got past the hole's mouth (no capture): ``value`` is the
   depth entered, ``limit`` the depth below which that counts as the rim;
 * ``jammed``    it entered and stopped short: ``value`` the depth reached, ``limit`` the
-  engagement length; ``detail`` the two-point evidence (tilt and lateral offset at the stop);
+  engagement length; ``detail`` the two-point evidence (tilt and lateral offset at the stop)
+  and ``contacts`` the two contact points that hold it (:func:`two_point_contacts`: the most
+  loaded contact, and the most loaded one on the opposite side of the mate axis, with their
+  partner, position, normal and force);
 * ``slipped``   the part slipped in the grip before the insertion: ``value`` the slip, ``limit``
   the allowed slip;
 * ``fell``      a body left the scene or fell freely: ``value`` its speed, ``limit`` the speed
@@ -20,11 +23,41 @@ position from after it.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
+import numpy as np
+
 FailureCode = Literal["rim_stop", "jammed", "slipped", "fell", "unstable"]
 FAILURE_CODES: tuple[str, ...] = ("rim_stop", "jammed", "slipped", "fell", "unstable")
+
+
+@dataclass(frozen=True)
+class ContactEvidence:
+    """One contact point of the part at the moment a failure was judged: ``partner`` (body
+    name), ``position_m`` (world, on the partner's surface), ``normal`` (world, unit, from
+    the partner toward the part), ``normal_force_N`` and ``side`` ("a": the most loaded
+    contact; "b": the most loaded on the other side of the mate axis)."""
+
+    partner: str
+    position_m: tuple[float, float, float]
+    normal: tuple[float, float, float]
+    normal_force_N: float
+    side: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"partner": self.partner, "position_m": list(self.position_m),
+                "normal": list(self.normal), "normal_force_N": _finite(self.normal_force_N),
+                "side": self.side}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> ContactEvidence:
+        p, n = d["position_m"], d["normal"]
+        return cls(partner=d.get("partner", ""),
+                   position_m=(float(p[0]), float(p[1]), float(p[2])),
+                   normal=(float(n[0]), float(n[1]), float(n[2])),
+                   normal_force_N=_nan(d.get("normal_force_N")), side=d.get("side", ""))
 
 
 @dataclass(frozen=True)
@@ -38,6 +71,7 @@ class Failure:
     body: str = ""
     position_m: tuple[float, float, float] | None = None
     detail: str = ""
+    contacts: tuple[ContactEvidence, ...] = ()
 
     def __post_init__(self) -> None:
         if self.code not in FAILURE_CODES:
@@ -64,7 +98,7 @@ class Failure:
         return {"code": self.code, "value": _finite(self.value), "limit": _finite(self.limit),
                 "unit": self.unit, "body": self.body,
                 "position_m": None if self.position_m is None else list(self.position_m),
-                "detail": self.detail}
+                "detail": self.detail, "contacts": [c.to_dict() for c in self.contacts]}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Failure:
@@ -73,7 +107,8 @@ class Failure:
                    unit=d.get("unit", ""), body=d.get("body", ""),
                    position_m=None if pos is None else (float(pos[0]), float(pos[1]),
                                                         float(pos[2])),
-                   detail=d.get("detail", ""))
+                   detail=d.get("detail", ""),
+                   contacts=tuple(ContactEvidence.from_dict(c) for c in d.get("contacts", ())))
 
 
 def _finite(v: float) -> float | None:
@@ -106,18 +141,76 @@ class SceneGuard:
                 raise ValueError(f"SceneGuard.{label}: expected > 0, found {v}")
 
 
+def two_point_contacts(partners: Sequence[str], positions_m: np.ndarray, normals: np.ndarray,
+                       normal_forces_N: np.ndarray, axis_point_m: np.ndarray,
+                       axis: np.ndarray) -> tuple[ContactEvidence, ...]:
+    """The two contacts that hold a wedged part: the most loaded contact point (side "a")
+    and the most loaded one on the other side of the mate axis (side "b": its offset from
+    the axis, perpendicular to it, points away from the first's), or the first alone when
+    no loaded contact lies on the other side (no two-point wedge). Points without normal
+    force are ignored.
+
+    Parameters
+    ----------
+    partners : (n,) body names; positions_m, normals : (n, 3) world; normal_forces_N : (n,)
+    axis_point_m : (3,) a point on the part's axis; axis : (3,) unit mate axis (world).
+    """
+    f = np.asarray(normal_forces_N, dtype=float)
+    loaded = np.flatnonzero(f > 0.0)
+    if loaded.size == 0:
+        return ()
+    pos = np.asarray(positions_m, dtype=float)
+    ax = np.asarray(axis, dtype=float)
+    rel = pos - np.asarray(axis_point_m, dtype=float)
+    lateral = rel - np.outer(rel @ ax, ax)
+    i = int(loaded[np.argmax(f[loaded])])
+
+    def ev(k: int, side: str) -> ContactEvidence:
+        return ContactEvidence(str(partners[k]), tuple(float(v) for v in pos[k]),  # type: ignore[arg-type]
+                               tuple(float(v) for v in normals[k]), float(f[k]), side)
+
+    out = [ev(i, "a")]
+    other = [k for k in loaded if float(lateral[k] @ lateral[i]) < 0.0]
+    if other:
+        out.append(ev(max(other, key=lambda k: f[k]), "b"))
+    return tuple(out)
+
+
+def _contacts_text(contacts: Sequence[ContactEvidence], axis: np.ndarray | None) -> str:
+    if not contacts:
+        return ""
+    parts = [f"{c.side}: {c.partner} at (" + ", ".join(f"{v * 1e3:.2f}" for v in c.position_m)
+             + f") mm, normal ({', '.join(f'{v:+.3f}' for v in c.normal)}), "
+             f"{c.normal_force_N:.2f} N" for c in contacts]
+    if len(contacts) == 2 and axis is not None:
+        sep = abs(float((np.asarray(contacts[0].position_m) - np.asarray(contacts[1].position_m))
+                        @ np.asarray(axis)))
+        head = f"two-point contact {sep * 1e3:.2f} mm apart along the axis"
+    else:
+        head = "one-sided contact (no second point across the axis)"
+    return head + ": " + "; ".join(parts)
+
+
 def classify_insertion(entered_m: float, engagement_m: float, rim_depth_m: float,
-                       tilt_rad: float, lateral_m: float) -> Failure:
+                       tilt_rad: float, lateral_m: float,
+                       contacts: Sequence[ContactEvidence] = (),
+                       axis: np.ndarray | None = None) -> Failure:
     """The cause of an insertion that did not reach its depth: ``rim_stop`` when less than
     ``rim_depth_m`` entered, else ``jammed`` at the depth reached, with the tilt and lateral
-    offset of the part at its deepest point (the two-point contact evidence)."""
+    offset of the part at its deepest point and the contacts holding it there
+    (:func:`two_point_contacts`): the two-point contact evidence."""
     if entered_m < rim_depth_m:
         return Failure("rim_stop", entered_m, rim_depth_m, "m",
                        detail=f"lateral offset {lateral_m * 1e3:.3f} mm, tilt "
-                              f"{math.degrees(tilt_rad):.2f} deg")
+                              f"{math.degrees(tilt_rad):.2f} deg",
+                       contacts=tuple(contacts))
+    text = _contacts_text(contacts, axis)
     return Failure("jammed", entered_m, engagement_m, "m",
                    detail=f"two-point evidence: tilt {math.degrees(tilt_rad):.2f} deg, lateral "
-                          f"offset {lateral_m * 1e3:.3f} mm at the deepest point")
+                          f"offset {lateral_m * 1e3:.3f} mm at the deepest point"
+                          + (f"; {text}" if text else ""),
+                   contacts=tuple(contacts))
 
 
-__all__ = ["FAILURE_CODES", "Failure", "FailureCode", "SceneGuard", "classify_insertion"]
+__all__ = ["FAILURE_CODES", "ContactEvidence", "Failure", "FailureCode", "SceneGuard",
+           "classify_insertion", "two_point_contacts"]

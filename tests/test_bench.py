@@ -44,8 +44,11 @@ def test_fast_figures_are_within_their_bounds(fast_accuracy) -> None:
                    if f.figure in ("jam_depth_error_m", "rim_capture_mismatch"))
     # analytic expectations, independent of the bounds table
     assert figs[("seed clamp cycle (4 s)", "seed_force_mae_N")].value <= b.PAPER_MAE_N
-    slip = next(f for f in fast_accuracy.figures if f.figure == "slip_threshold_error")
-    assert abs(slip.value) <= 0.10
+    slips = [f for f in fast_accuracy.figures if f.figure == "slip_threshold_error"]
+    # issue 16: held in the air (a = 0) and lifted at 5 and 20 m/s^2, each vs m (g + a) / (2 mu)
+    assert [f.scenario.split(",")[1].split("(")[0].strip() for f in slips] == [
+        "a = 0 m/s^2", "a = 5 m/s^2", "a = 20 m/s^2"]
+    assert all(abs(f.value) <= 0.03 and f.asserted for f in slips)
     fit, interference = fast_accuracy.reference
     assert fit.success and not interference.success
     scene = PinHole()

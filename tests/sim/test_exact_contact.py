@@ -12,6 +12,7 @@ from asmplan.parts.pieces import ConvexPiece
 from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.fidelity import BALANCED, FAST, preset
 from bench.scenarios import (
+    PinHole,
     entered_depth_m,
     held_drift_m,
     jam_depth_m,
@@ -24,6 +25,49 @@ def test_whitney_formula():
     # D = 10.1, d = 10, t = 0.1 rad: (10.1 - 10 cos 0.1) / sin 0.1 = 1.5001 mm
     assert whitney_jam_depth_m(0.1e-3, 0.1) == pytest.approx(
         (10.1e-3 - 10e-3 * math.cos(0.1)) / math.sin(0.1), rel=1e-12)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("clearance_mm", "tilt_deg"), [(0.05, 0.5), (0.1, 0.5), (0.05, 1.0),
+                                                       (0.1, 2.0), (0.5, 3.0)])
+def test_jam_scene_geometry_is_exact_with_a_direct_solver(clearance_mm, tilt_deg):
+    """The jam scene at BALANCED's time step with Bullet's direct (Dantzig) solver and a
+    0.1 um slop stops within 0.1 mm of l* at small tilts, where BALANCED itself is +0.5 mm
+    (2 deg) to +3.3 mm (0.5 deg) deep: the peg, hole and depth measure are exact, and
+    BALANCED's error is its iterative solver (docs/physics.md, "Jam depth at small tilts").
+    Measured |error| <= 0.066 mm."""
+    import dataclasses
+
+    exact = dataclasses.replace(BALANCED, constraint_solver="dantzig", contact_slop_m=1e-7)
+    c, t = clearance_mm * 1e-3, math.radians(tilt_deg)
+    err = jam_depth_m(exact, c, t) - whitney_jam_depth_m(c, t)
+    assert abs(err) < 0.1e-3
+
+
+@pytest.mark.slow
+def test_jammed_verdict_carries_the_two_contact_points():
+    """A 10 mm pin held 5 deg off the hole's axis (0.5 mm diametral clearance, no chamfer),
+    its tip placed over the hole: it wedges. The verdict names the two contacts holding it:
+    the hole's mouth on one side and its wall deeper down on the other, with opposed
+    normals."""
+    from asmplan.sim.pose_error import PoseError
+
+    scene = PinHole()
+    tilt = math.radians(5.0)
+    # the TCP is 32 mm above the pin's tip: tilting about it moves the tip 32 sin t sideways
+    reach = scene.grasp_above_centre_m + scene.pin_length_m / 2.0
+    _, outcome = pin_insertion(BALANCED, 0.25e-3, scene=scene, pose_error=PoseError(
+        (-reach * math.sin(tilt), 0.0), (0.0, tilt)))
+    jam = next(f for f in outcome.failures if f.code == "jammed")
+    a, b = jam.contacts
+    assert (a.side, b.side) == ("a", "b")
+    assert np.dot(a.normal, b.normal) < -0.9  # opposite walls
+    top = scene.block_size_m[2]
+    z = sorted((a.position_m[2], b.position_m[2]))
+    assert z[1] == pytest.approx(top, abs=0.1e-3)  # one at the mouth
+    assert top - z[0] > 2e-3  # the other deep in the hole
+    assert a.normal_force_N > 0 and b.normal_force_N > 0
+    assert "two-point contact" in jam.message and "block" in jam.message
 
 
 @pytest.mark.slow

@@ -163,7 +163,14 @@ def test_insertion_off_the_hole_axis_fails_on_depth_and_position():
     # the standing peg may topple once released, so the final depth error can be smaller)
     assert result.criteria["insertion_depth"]["value"] > 5e-3
     codes = [f.code for f in result.outcome.failures]
-    assert "rim_stop" in codes and "unstable" not in codes, result.reasons
+    assert "rim_stop" in codes, result.reasons
+    # The robot keeps descending 20 mm onto the face: the peg slips up the pads and the pads
+    # are driven into the block (hundreds of N, millimetres of penetration). Whether the
+    # crushed peg is then shot out faster than 1 m/s is chaotic (it was not before the pads
+    # closed without impact, it is after); if it is, the step must say "unstable" AND that
+    # the solver did not resolve a contact, never "unstable" alone.
+    if "unstable" in codes:
+        assert "penetration" in result.failed_criteria, result.reasons
     assert any("insertion depth not reached" in r for r in result.reasons)
 
 
