@@ -142,9 +142,8 @@ def held_drift_m(fidelity: Fidelity, tilt_rad: float, part: BoxPart | None = Non
     force never below the hold value (1.57 N) before the release.
     """
     part = part or BoxPart()
-    c, sn = math.cos(tilt_rad), math.sin(tilt_rad)
-    R_tilt = np.array([[1.0, 0.0, 0.0], [0.0, c, -sn], [0.0, sn, c]])
-    T_tcp = pose((0.0, 0.0, 0.3), R_DOWN @ R_tilt)
+    traj = drift_trajectory(tilt_rad)
+    T_tcp = traj.T_world_gripper[0]
     with BulletWorld(fidelity) as world:
         body = world.add_body((box_piece(part.size_m),), part.mass_kg, T_tcp.copy(),
                               inertia_kgm2=box_inertia(part.mass_kg, part.size_m),
@@ -152,11 +151,6 @@ def held_drift_m(fidelity: Fidelity, tilt_rad: float, part: BoxPart | None = Non
         cls = CoupledGripper if coupled else Gripper
         gripper = cls(world, GripperSpec(), T_tcp, opening_m=part.size_m[1],
                       carried_mass_kg=part.mass_kg)
-        traj = seed_cycle(parse_phase_table(SEED_PHASE_TABLE_CSV), T_tcp, lift_m=0.05,
-                          translation_m=(0.1, 0.0, 0.0))
-        hold = np.where(traj.t_s < 3.5, np.maximum(traj.clamp_force_N, 1.57), traj.clamp_force_N)
-        traj = Trajectory(t_s=traj.t_s, T_world_gripper=traj.T_world_gripper,
-                          clamp_force_N=hold, phases=traj.phases)
         record, _ = execute_step(world, gripper, body, traj)
     t = record.t_s
     span = (t >= 0.1) & (t <= 3.5)
@@ -207,14 +201,10 @@ def lift_slip_m(fidelity: Fidelity, part: BoxPart, force_N: float, accel_mps2: f
     """Largest slip (m) of ``part`` in the fingers, lifted from the table at ``accel_mps2``
     with ``force_N`` (:func:`lift_profile`). ``accel_mps2`` = 0 is :func:`hold_slip_m` (a
     part lifted at no acceleration never leaves the table)."""
-    if accel_mps2 == 0.0:
-        return hold_slip_m(fidelity, part, force_N)
-    lift_s, decel = lift_profile(accel_mps2)
     with BulletWorld(fidelity) as world:
         body, gripper, T_tcp = add_box_and_gripper(world, part)
         _, outcome = execute_step(world, gripper, body,
-                                  constant_acceleration_lift(T_tcp, force_N, accel_mps2,
-                                                             lift_s=lift_s, decel_mps2=decel))
+                                  slip_trajectory(T_tcp, force_N, accel_mps2))
     return float(outcome.max_slip_m)
 
 
@@ -222,26 +212,56 @@ HOLD_LIFT_M = 0.002
 HOLD_LIFT_S = 1.2
 
 
+def hold_lift_trajectory(T_tcp: np.ndarray, force_N: float, hold_s: float = 0.3) -> Trajectory:
+    """Clamp on the table (0 -> ``force_N`` in 0.1 s), hold to 0.3 s, lift
+    :data:`HOLD_LIFT_M` by a minimum-jerk move over :data:`HOLD_LIFT_S` (peak acceleration
+    5.77 h / T^2 = 0.008 m/s^2, 0.08 % of g), hold still in the air for ``hold_s``."""
+    up = T_tcp.copy()
+    up[2, 3] += HOLD_LIFT_M
+    return trajectory_from_segments(T_tcp, (
+        Segment("clamp", 0.1, T_tcp, 0.0, force_N),
+        Segment("hold", 0.2, T_tcp, force_N, force_N),
+        Segment("lift", HOLD_LIFT_S, up, force_N, force_N),
+        Segment("translate", hold_s, up, force_N, force_N),
+    ))
+
+
 def hold_slip_m(fidelity: Fidelity, part: BoxPart, force_N: float, hold_s: float = 0.3
                 ) -> float:
-    """Largest slip (m) of ``part`` clamped on the table with ``force_N``, lifted
-    :data:`HOLD_LIFT_M` by a minimum-jerk move over :data:`HOLD_LIFT_S` (peak acceleration
-    5.77 h / T^2 = 0.008 m/s^2, 0.08 % of g) and held still in the air for ``hold_s``: the
-    a = 0 case, whose holding force is ``m g / (2 mu)``. A part squeezed in the air from
-    rest instead falls for the few milliseconds the squeeze takes to rise and slides on
-    (+9-12 % apparent threshold)."""
+    """Largest slip (m) of ``part`` clamped on the table with ``force_N``, lifted slowly and
+    held still in the air (:func:`hold_lift_trajectory`): the a = 0 case, whose holding
+    force is ``m g / (2 mu)``. A part squeezed in the air from rest instead falls for the
+    few milliseconds the squeeze takes to rise and slides on (+9-12 % apparent threshold)."""
     with BulletWorld(fidelity) as world:
         body, gripper, T_tcp = add_box_and_gripper(world, part)
-        up = T_tcp.copy()
-        up[2, 3] += HOLD_LIFT_M
-        traj = trajectory_from_segments(T_tcp, (
-            Segment("clamp", 0.1, T_tcp, 0.0, force_N),
-            Segment("hold", 0.2, T_tcp, force_N, force_N),
-            Segment("lift", HOLD_LIFT_S, up, force_N, force_N),
-            Segment("translate", hold_s, up, force_N, force_N),
-        ))
-        _, outcome = execute_step(world, gripper, body, traj)
+        _, outcome = execute_step(world, gripper, body,
+                                  hold_lift_trajectory(T_tcp, force_N, hold_s))
     return float(outcome.max_slip_m)
+
+
+def slip_trajectory(T_tcp: np.ndarray, force_N: float, accel_mps2: float) -> Trajectory:
+    """The slip-threshold scene's trajectory at ``accel_mps2`` (0: held in the air,
+    :func:`hold_lift_trajectory`; else :func:`constant_acceleration_lift` with
+    :func:`lift_profile`)."""
+    if accel_mps2 == 0.0:
+        return hold_lift_trajectory(T_tcp, force_N)
+    lift_s, decel = lift_profile(accel_mps2)
+    return constant_acceleration_lift(T_tcp, force_N, accel_mps2, lift_s=lift_s,
+                                      decel_mps2=decel)
+
+
+def drift_trajectory(tilt_rad: float) -> Trajectory:
+    """The held-drift scene's trajectory (:func:`held_drift_m`): the seed cycle from a TCP
+    0.3 m up, closing axis tilted ``tilt_rad`` from horizontal, force at least the hold
+    value (1.57 N) until the release."""
+    c, sn = math.cos(tilt_rad), math.sin(tilt_rad)
+    R_tilt = np.array([[1.0, 0.0, 0.0], [0.0, c, -sn], [0.0, sn, c]])
+    T_tcp = pose((0.0, 0.0, 0.3), R_DOWN @ R_tilt)
+    traj = seed_cycle(parse_phase_table(SEED_PHASE_TABLE_CSV), T_tcp, lift_m=0.05,
+                      translation_m=(0.1, 0.0, 0.0))
+    hold = np.where(traj.t_s < 3.5, np.maximum(traj.clamp_force_N, 1.57), traj.clamp_force_N)
+    return Trajectory(t_s=traj.t_s, T_world_gripper=traj.T_world_gripper,
+                      clamp_force_N=hold, phases=traj.phases)
 
 
 # --------------------------------------------------------------------------------------------
@@ -424,8 +444,11 @@ __all__ = [
     "box_piece",
     "constant_acceleration_lift",
     "cylinder_inertia",
+    "drift_trajectory",
     "entered_depth_m",
+    "heavy_on_light",
     "held_drift_m",
+    "hold_lift_trajectory",
     "hold_slip_m",
     "jam_depth_m",
     "lift_profile",
@@ -433,5 +456,33 @@ __all__ = [
     "pin_insertion",
     "pose",
     "run_seed_cycle",
+    "slip_trajectory",
     "whitney_jam_depth_m",
 ]
+
+
+def heavy_on_light(fidelity: Fidelity, settle_s: float = 1.0) -> tuple[float, float]:
+    """(largest cube speed, m/s; the block's sink, m): a 120 x 120 x 900 mm, 100 kg block
+    resting on four 10 mm, 1 g cubes on the ground, no gripper, for ``settle_s`` (the scene
+    of ``tests/sim/test_guards.py`` without the gripper's cycle). Analytic: nothing moves."""
+    cube = (0.01, 0.01, 0.01)
+    block = (0.12, 0.12, 0.9)
+    with BulletWorld(fidelity) as world:
+        world.add_ground(friction=0.5)
+        cubes = []
+        for dx in (-0.04, 0.04):
+            for dy in (-0.04, 0.04):
+                T = np.eye(4)
+                T[:3, 3] = (dx, dy, 0.005)
+                cubes.append(world.add_body((box_piece(cube),), 0.001, T,
+                                            inertia_kgm2=box_inertia(0.001, cube), name="cube"))
+        T = np.eye(4)
+        T[:3, 3] = (0.0, 0.0, 0.01 + 0.45)
+        top = world.add_body((box_piece(block),), 100.0, T,
+                             inertia_kgm2=box_inertia(100.0, block), name="block")
+        vmax = 0.0
+        for _ in range(round(settle_s / fidelity.dt_s)):
+            world.step()
+            vmax = max(vmax, max(float(np.linalg.norm(world.velocity(c)[0])) for c in cubes))
+        sink = 0.46 - float(world.pose(top)[2, 3])
+    return vmax, sink

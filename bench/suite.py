@@ -1191,3 +1191,173 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
     out += ["", "Regressions in this run: " + ("none" if not rep.regressions else
                                                "; ".join(str(r) for r in rep.regressions)), ""]
     return "\n".join(out)
+
+
+# ---------------------------------------------------------------------------------------------
+# PyBullet and MuJoCo side by side (issue 16)
+
+
+@dataclass(frozen=True)
+class PeerRow:
+    """One validation scene in both engines: the figure's error against its analytic answer
+    (same unit, ``unit``) and the wall seconds per simulated second of each engine."""
+
+    scene: str
+    analytic: str
+    unit: str
+    pybullet_error: float
+    mujoco_error: float
+    pybullet_cost: float
+    mujoco_cost: float
+
+
+def _bisect_force(slips: Callable[[float], tuple[bool, float, float]], analytic: float,
+                  iterations: int) -> tuple[float, float, float]:
+    """Smallest holding force by bisection in [0.5, 2] x ``analytic``: (relative error, wall
+    s, simulated s) summed over the runs; ``slips(F)`` gives (slipped, wall, simulated)."""
+    lo, hi = 0.5 * analytic, 2.0 * analytic
+    wall = sim = 0.0
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        slipped, w, s = slips(mid)
+        wall, sim = wall + w, sim + s
+        if slipped:
+            lo = mid
+        else:
+            hi = mid
+    return hi / analytic - 1.0, wall, sim
+
+
+def peer_rows(fid: Any, iterations: int = 8, log: Callable[[str], None] | None = None
+              ) -> list[PeerRow]:
+    """Every validation scene at ``fid`` (PyBullet) and in MuJoCo at the same time step
+    (:mod:`asmplan.sim.peers`, its recommended stiff-contact settings): Whitney jam depth,
+    capture boundary, slip threshold at a = 0 / 5 / 20 m/s^2, held drift at three tilts and
+    the heavy-on-light stack. Empty when MuJoCo is not installed."""
+    import numpy as np
+
+    from asmplan.sim import peers
+
+    from .scenarios import (
+        BoxPart,
+        G,
+        JamScene,
+        drift_trajectory,
+        entered_depth_m,
+        heavy_on_light,
+        held_drift_m,
+        jam_depth_m,
+        lift_slip_m,
+        pose,
+        slip_trajectory,
+        whitney_jam_depth_m,
+    )
+    from .scenarios import pin_insertion as scene_pin_insertion
+
+    if not peers.available():
+        return []
+    say = log or (lambda _s: None)
+    dt = fid.dt_s
+    rows: list[PeerRow] = []
+    for c, t_deg in ((0.1e-3, 5.0), (0.1e-3, 2.0), (0.1e-3, 0.5)):
+        t = math.radians(t_deg)
+        ref = whitney_jam_depth_m(c, t)
+        t0 = time.perf_counter()
+        got = jam_depth_m(fid, c, t)
+        pb_cost = (time.perf_counter() - t0) / JamScene().settle_s
+        mj, mj_cost = peers.mujoco_jam_depth_m(dt, c, t)
+        rows.append(PeerRow(f"Whitney jam depth, c = {c * 1e3:g} mm, t = {t_deg:g} deg",
+                            f"l* = {ref * 1e3:.3f} mm", "m", got - ref, mj - ref, pb_cost,
+                            mj_cost))
+        say(f"peers: jam {t_deg} deg")
+    # capture boundary: 0.5 mm off stays on the rim, 0.02 mm off goes in (c/2 = 0.1 mm)
+    mism_pb = mism_mj = 0
+    wall_pb = wall_mj = 0.0
+    for e, expect_in in ((0.5e-3, False), (0.02e-3, True)):
+        t0 = time.perf_counter()
+        record, _ = scene_pin_insertion(fid, 0.1e-3, lateral_offset_m=e)
+        wall_pb += (time.perf_counter() - t0) / float(record.t_s[-1])
+        mism_pb += int((entered_depth_m(record) > 2e-3) != expect_in)
+        got_mj, cost = peers.mujoco_capture_entered_m(dt, 0.1e-3, e)
+        wall_mj += cost
+        mism_mj += int((got_mj > 2e-3) != expect_in)
+    rows.append(PeerRow("capture boundary, unchamfered pin 0.5 / 0.02 mm off, c/2 = 0.1 mm",
+                        "|e0| < c/2: rim / in", "wrong verdicts", mism_pb, mism_mj,
+                        wall_pb / 2, wall_mj / 2))
+    say("peers: capture")
+    # slip threshold
+    part = BoxPart(mass_kg=0.1, friction=0.5)
+    mu = 1.0 * part.friction
+    for a in SLIP_ACCELS_MPS2:
+        analytic = part.mass_kg * (G + a) / (2 * mu)
+
+        def pb_slips(F: float, a: float = a) -> tuple[bool, float, float]:
+            t0 = time.perf_counter()
+            slipped = lift_slip_m(fid, part, F, a) >= 0.2e-3
+            T = slip_trajectory(pose((0.0, 0.0, 0.025)), F, a)
+            return slipped, time.perf_counter() - t0, float(T.t_s[-1])
+
+        def mj_slips(F: float, a: float = a) -> tuple[bool, float, float]:
+            T_tcp = pose((0.0, 0.0, part.size_m[2] / 2.0))
+            part_standing = np.eye(4)
+            part_standing[2, 3] = part.size_m[2] / 2.0
+            traj = slip_trajectory(T_tcp, F, a)
+            ts, rel, cost = peers.mujoco_gripper_run(
+                dt, traj.t_s, traj.T_world_gripper, traj.clamp_force_N, part.size_m,
+                part.mass_kg, part_standing, part.friction,
+                part.size_m[1] + 0.004, True)
+            ref_t = next(p.t_end_s for p in traj.phases if p.name == "hold")
+            k = int(np.searchsorted(ts, ref_t))
+            slip = float(np.max(np.linalg.norm(rel[k:, :3, 3] - rel[k, :3, 3], axis=1)))
+            return slip >= 0.2e-3, cost * float(traj.t_s[-1]), float(traj.t_s[-1])
+
+        e_pb, w_pb, s_pb = _bisect_force(pb_slips, analytic, iterations)
+        e_mj, w_mj, s_mj = _bisect_force(mj_slips, analytic, iterations)
+        rows.append(PeerRow(f"slip threshold, a = {a:g} m/s^2 (100 g box, mu 0.5)",
+                            f"m (g + a) / (2 mu) = {analytic:.3f} N", "", e_pb, e_mj,
+                            w_pb / s_pb, w_mj / s_mj))
+        say(f"peers: slip a = {a}")
+    # held drift
+    for tilt in DRIFT_TILTS_RAD:
+        t0 = time.perf_counter()
+        d_pb = held_drift_m(fid, tilt, coupled=True)
+        traj = drift_trajectory(tilt)
+        pb_cost = (time.perf_counter() - t0) / float(traj.t_s[-1])
+        bp = BoxPart()
+        ts, rel, mj_cost = peers.mujoco_gripper_run(
+            dt, traj.t_s, traj.T_world_gripper, traj.clamp_force_N, bp.size_m, bp.mass_kg,
+            traj.T_world_gripper[0], bp.friction, bp.size_m[1], False)
+        span = (ts >= 0.1) & (ts <= 3.5)
+        d_mj = float(np.ptp(rel[span, 1, 3]))
+        rows.append(PeerRow(f"held drift along the closing axis, tilted {tilt:.2f} rad",
+                            "0", "m", d_pb, d_mj, pb_cost, mj_cost))
+        say(f"peers: drift {tilt:.2f}")
+    # heavy on light
+    t0 = time.perf_counter()
+    v_pb, _sink_pb = heavy_on_light(fid)
+    pb_cost = time.perf_counter() - t0
+    v_mj, _sink_mj, mj_cost = peers.mujoco_heavy_on_light(dt)
+    rows.append(PeerRow("100 kg block on four 1 g cubes: fastest cube", "0 m/s", "m/s",
+                        v_pb, v_mj, pb_cost, mj_cost))
+    return rows
+
+
+def format_peers(rows: Sequence[PeerRow], preset_name: str) -> str:
+    """Markdown: both engines' errors and costs per scene, with who is ahead."""
+    lines = [f"| scene | analytic | PyBullet {preset_name} error | MuJoCo error | PyBullet "
+             f"wall s / sim s | MuJoCo wall s / sim s | more accurate |",
+             "| --- | --- | ---: | ---: | ---: | ---: | --- |"]
+    for r in rows:
+        def v(x: float, r: PeerRow = r) -> str:
+            if r.unit == "m":
+                return f"{x * 1e3:+.3f} mm"
+            if r.unit == "":
+                return f"{x * 100:+.2f} %"
+            return f"{x:g} {r.unit}"
+        a, b = abs(r.pybullet_error), abs(r.mujoco_error)
+        ahead = "equal" if math.isclose(a, b, rel_tol=0.1, abs_tol=1e-12) else (
+            "PyBullet" if a < b else "MuJoCo")
+        lines.append(f"| {r.scene} | {r.analytic} | {v(r.pybullet_error)} | "
+                     f"{v(r.mujoco_error)} | {r.pybullet_cost:.2f} | {r.mujoco_cost:.2f} | "
+                     f"{ahead} |")
+    return "\n".join(lines) + "\n"
