@@ -232,6 +232,9 @@ class AccuracyResult:
     reference_dt_s: float
     convergence_m: float | None = None
     """Largest |entered depth| difference between the reference and a 2x coarser step, m."""
+    peers: tuple[PeerRow, ...] = ()
+    """The validation scenes in PyBullet (BALANCED) and MuJoCo side by side (:func:`peer_rows`;
+    empty without MuJoCo or without BALANCED among the presets)."""
 
 
 def _scenario_name(c: float) -> str:
@@ -243,7 +246,7 @@ def _scenario_name(c: float) -> str:
 # against the reference, contact figures), each adding its figures in the report's order.
 def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
                  clearances_m: Sequence[float] | None = None, *,
-                 check_convergence: bool = False,
+                 check_convergence: bool = False, with_peers: bool = False,
                  log: Callable[[str], None] | None = None) -> AccuracyResult:
     """Run the accuracy scenarios at every preset (see the module docstring).
 
@@ -254,6 +257,7 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
         (default :data:`INSERTION_CLEARANCES_M`).
     check_convergence : also run the reference at twice its time step and report the largest
         depth difference (``convergence_m``).
+    with_peers : also run every scene in MuJoCo beside BALANCED (:func:`peer_rows`).
     log : called with one line per finished run (progress).
     """
     from asmplan.sim.fidelity import preset
@@ -308,7 +312,10 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
         if name == presets[0]:
             figures.extend(seed_profile_figures(name))
         say(f"accuracy {name}: {sum(f.wall_s for f in figures if f.preset == name):.1f} s")
-    return AccuracyResult(tuple(figures), reference, REFERENCE_DT_S, convergence)
+    peer = ()
+    if with_peers and "balanced" in presets:
+        peer = tuple(peer_rows(preset("balanced"), log=say))
+    return AccuracyResult(tuple(figures), reference, REFERENCE_DT_S, convergence, peer)
 
 
 JAM_CLEARANCES_M: tuple[float, ...] = (0.01e-3, 0.05e-3, 0.1e-3, 0.5e-3)
@@ -1121,6 +1128,15 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
                 format_accuracy_summary(rep.accuracy), format_accuracy(rep.accuracy)]
         if plot_name:
             out += [f"![accuracy vs cost]({plot_name})", ""]
+        if rep.accuracy.peers:
+            out += ["## PyBullet and MuJoCo side by side", "",
+                    "`bench.suite.peer_rows()`: every validation scene in asmplan's PyBullet "
+                    "(BALANCED) and in MuJoCo (`asmplan.sim.peers`, extra `peers`) at the same "
+                    "time step and its recommended stiff-contact settings (elliptic cone, "
+                    "impratio 10, solref 2 dt, noslip 20), each against its analytic answer; "
+                    "cost = wall seconds per simulated second. Where PyBullet is behind, the "
+                    "last column says so (docs/physics.md explains each).", "",
+                    format_peers(rep.accuracy.peers, "balanced")]
     if rep.seed is not None:
         out += ["## The seed workstation end to end", "",
                 "`bench.suite.run_seed_timing()`: the bundled seed workstation (4 parts, 3 "

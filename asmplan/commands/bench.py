@@ -127,10 +127,14 @@ def run(args: argparse.Namespace) -> int:
 
     if "accuracy" in sections:
         log(f"accuracy: presets {', '.join(presets)} and the reference runs")
-        rep.accuracy = b.run_accuracy(presets, check_convergence=not args.quick, log=log)
+        rep.accuracy = b.run_accuracy(presets, check_convergence=not args.quick,
+                                      with_peers=not args.quick, log=log)
         rep.regressions = b.check_bounds(rep.accuracy.figures)
         show("Accuracy vs cost", b.format_accuracy_summary(rep.accuracy) + "\n"
              + b.format_accuracy(rep.accuracy))
+        if rep.accuracy.peers:
+            show("PyBullet and MuJoCo side by side", b.format_peers(rep.accuracy.peers,
+                                                                     "balanced"))
     if "seed" in sections:
         log(f"seed workstation at FAST without the report, {b.SEED_RUNS} runs")
         rep.seed = b.run_seed_timing(log=log)
