@@ -85,3 +85,21 @@ def test_gripper_spec_validation():
             gripper.command_clamp_force(60.0)
         with pytest.raises(ValueError, match=r"opening_m: expected within"):
             gripper.command_open(0.5)
+
+
+@pytest.mark.parametrize("name", ["fast", "balanced"])
+def test_pads_close_on_a_round_pin_without_entering_it(name):
+    """Session 4's BALANCED "fit" penetration (68-70 um) was the pads: closing at 50 mm/s
+    they entered the pin before Bullet's 25 um contact distance saw it, and the full squeeze
+    on one-point contacts at opposite pin ends tipped it (75-109 um). The pads now stop
+    their last step at the measured gap and the squeeze rises over 10 ms after touching:
+    measured 3 um at BALANCED (bound 10 um, 10 x the contact slop) and within FAST's 10 um
+    slop (bound 50 um)."""
+    from asmplan.sim.fidelity import preset
+    from bench.scenarios import pin_insertion
+
+    record, outcome = pin_insertion(preset(name), 0.025e-3)
+    grip = record.phase_mask("clamp", "hold", "lift")
+    limit = 10e-6 if name == "balanced" else 50e-6
+    assert float(record.max_penetration_m[grip].max()) < limit
+    assert outcome.success
