@@ -312,7 +312,7 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
         if name == presets[0]:
             figures.extend(seed_profile_figures(name))
         say(f"accuracy {name}: {sum(f.wall_s for f in figures if f.preset == name):.1f} s")
-    peer = ()
+    peer: tuple[PeerRow, ...] = ()
     if with_peers and "balanced" in presets:
         peer = tuple(peer_rows(preset("balanced"), log=say))
     return AccuracyResult(tuple(figures), reference, REFERENCE_DT_S, convergence, peer)

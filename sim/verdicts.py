@@ -166,13 +166,14 @@ def two_point_contacts(partners: Sequence[str], positions_m: np.ndarray, normals
     i = int(loaded[np.argmax(f[loaded])])
 
     def ev(k: int, side: str) -> ContactEvidence:
-        return ContactEvidence(str(partners[k]), tuple(float(v) for v in pos[k]),  # type: ignore[arg-type]
-                               tuple(float(v) for v in normals[k]), float(f[k]), side)
+        p, n = pos[k], np.asarray(normals[k], dtype=float)
+        return ContactEvidence(str(partners[k]), (float(p[0]), float(p[1]), float(p[2])),
+                               (float(n[0]), float(n[1]), float(n[2])), float(f[k]), side)
 
     out = [ev(i, "a")]
-    other = [k for k in loaded if float(lateral[k] @ lateral[i]) < 0.0]
+    other = [int(k) for k in loaded if float(lateral[k] @ lateral[i]) < 0.0]
     if other:
-        out.append(ev(max(other, key=lambda k: f[k]), "b"))
+        out.append(ev(max(other, key=lambda k: float(f[k])), "b"))
     return tuple(out)
 
 
