@@ -17,24 +17,29 @@ import yaml
 
 @dataclass(frozen=True)
 class FitRule:
-    """``fit`` applies to a ``male`` kind in a ``female`` kind up to ``max_diameter_m``
-    (``any`` matches every kind)."""
+    """``fit`` applies to a ``male`` kind in a ``female`` kind of a nominal diameter over
+    ``min_diameter_m`` up to and including ``max_diameter_m`` (ISO 286's size ranges; ``any``
+    matches every kind). ``source`` says where the rule was written (a product file's
+    ``default_fits`` entry, or the built-in table)."""
 
     male: str
     female: str
     max_diameter_m: float
     fit: str
     why: str
+    min_diameter_m: float = 0.0
+    source: str = "knowledge/data/default_fits.yaml"
 
     def matches(self, male: str, female: str, diameter_m: float) -> bool:
         return (self.male in ("any", male) and self.female in ("any", female)
-                and diameter_m <= self.max_diameter_m + 1e-12)
+                and self.min_diameter_m + 1e-12 < diameter_m <= self.max_diameter_m + 1e-12)
 
 
 def rules_from(data: list[dict[str, Any]]) -> tuple[FitRule, ...]:
-    """Rules from YAML mappings (``max_diameter`` in mm)."""
+    """Rules from YAML mappings (``min_diameter`` and ``max_diameter`` in mm)."""
     return tuple(FitRule(str(r.get("male", "any")), str(r.get("female", "any")),
-                         float(r.get("max_diameter", 500)) * 1e-3, str(r["fit"]), str(r.get("why", "")))
+                         float(r.get("max_diameter", 500)) * 1e-3, str(r["fit"]), str(r.get("why", "")),
+                         float(r.get("min_diameter", 0)) * 1e-3)
                  for r in data)
 
 

@@ -18,6 +18,7 @@ import numpy as np
 from . import iso286
 from .consistency import find_inconsistencies
 from .errors import InputIssue, ProductError, did_you_mean
+from .fit_rules import FitRule, builtin_rules, default_fit
 from .frames import make_T
 from .materials import Material, builtin_materials
 from .model import (
@@ -173,6 +174,14 @@ MATE = Map({
     "interference": Field(Num("length", positive=True)),
     "hub_diameter": Field(Num("length", positive=True)),
 }, name="a mate")
+DEFAULT_FIT = Map({
+    "male": Field(Str(("pin", "shaft", "any")), default="any"),
+    "female": Field(Str(("hole", "bore", "any")), default="any"),
+    "min_diameter": Field(Num("length", nonnegative=True), default=0.0),
+    "max_diameter": Field(Num("length", positive=True), required=True),
+    "fit": Field(Str(expected='an ISO 286 fit such as "H7/g6"'), required=True),
+    "why": Field(Str(expected="the reason for the fit"), default=""),
+}, name="a default fit rule")
 RULE = Map({"before": Field(Str(expected="a part name"), required=True),
             "after": Field(Str(expected="a part name"), required=True),
             "reason": Field(Str(expected="a reason for the rule"), required=True)}, name="a rule")
@@ -314,6 +323,7 @@ DOCUMENT = Map({
     "materials": Field(_MaterialTable(), default={}),
     "parts": Field(ListOf(PART, min_len=1), required=True),
     "mates": Field(ListOf(MATE), default=[]),
+    "default_fits": Field(ListOf(DEFAULT_FIT), default=None),
     "precedence": Field(PRECEDENCE, default=None),
     "process": Field(PROCESS, default=None),
     "resources": Field(RESOURCES, required=True),
@@ -406,14 +416,8 @@ class _Builder:
     def err(self, path: PathKey, message: str, *, key: bool = False) -> None:
         self.ctx.error(path, message, key=key)
 
-    # Complexity above C (radon): the loader's top level: every section of the file is read in order
-    # and every issue collected (units, header, materials, resources, parts, mates, consistency).
-    def run(self) -> Product:
-        data = self.doc.data
-        if not isinstance(data, dict):
-            raise ProductError([self.doc.issue((), "expected a YAML mapping at the top level "
-                                               "(asmplan, product, parts, ...), found "
-                                               f"{type(data).__name__}")])
+    def setup_units(self, data: dict[str, Any]) -> None:
+        """The document's unit scales and names (``units:``), into the context."""
         units = UNITS.check(data.get("units") or {}, ("units",), self.ctx) if "units" in data else \
             {"length": "mm", "mass": "kg", "angle": "deg"}
         if units is INVALID:
@@ -430,6 +434,16 @@ class _Builder:
             length=length_name, speed=f"{length_name}/s", acceleration=f"{length_name}/s^2",
             mass=units["mass"] if units["mass"] in MASS_UNITS else "kg",
             angle=units["angle"] if units["angle"] in ANGLE_UNITS else "deg")
+
+    # Complexity above C (radon): the loader's top level: every section of the file is read in order
+    # and every issue collected (units, header, materials, resources, parts, mates, consistency).
+    def run(self) -> Product:
+        data = self.doc.data
+        if not isinstance(data, dict):
+            raise ProductError([self.doc.issue((), "expected a YAML mapping at the top level "
+                                               "(asmplan, product, parts, ...), found "
+                                               f"{type(data).__name__}")])
+        self.setup_units(data)
         top, _ = DOCUMENT.check_partial(data, (), self.ctx)
         if top is INVALID:
             raise ProductError(self.ctx.issues)
@@ -453,6 +467,7 @@ class _Builder:
         gripper_etc = top.get("resources")
         process = self.build_process(top.get("process"))
         resources = self.build_resources(gripper_etc) if gripper_etc else None
+        self.default_fits = self.build_default_fits(top.get("default_fits"), data.get("default_fits"))
         mates = self.build_mates(data.get("mates"), parts)
         precedence = self.build_precedence(top.get("precedence"), data.get("precedence"))
         if resources is not None:
@@ -474,6 +489,7 @@ class _Builder:
             name=top["product"], source=Path(self.doc.file), parts=tuple(parts.values()),
             mates=tuple(mates), precedence=precedence, process=process, resources=resources,
             T_world_product=_pose(top.get("placement")), description=top.get("description") or "",
+            default_fits=self.default_fits or (),
         )
         if self.consistency:
             for found in find_inconsistencies(product):
@@ -765,15 +781,17 @@ class _Builder:
                          f"{hole.ref} ({hole.diameter_m * mm_per_m:g} mm), found "
                          f"{hub * mm_per_m:g} mm")
                 continue
+            fit = iso286_normal(v["fit"]) if v["fit"] else self.defaulted.pop(path, None)
             mates.append(Mate(name, pin.part, pin.name, hole.part, hole.name, *clearance,
-                              fit=iso286_normal(v["fit"]) if v["fit"] else None,
-                              hub_diameter_m=hub))
+                              fit=fit, hub_diameter_m=hub))
         return mates
 
     def mate_clearance(self, v: dict[str, Any], path: PathKey, pin: Feature, hole: Feature
                        ) -> tuple[float, float] | None:
         mm = 1e3
         if v["fit"] is None and v["clearance"] is None and v["interference"] is None:
+            if self.default_fits is not None and abs(pin.diameter_m - hole.diameter_m) <= 1e-9:
+                return self.default_fit_clearance(path, pin, hole)
             c = hole.diameter_m - pin.diameter_m
             if c < 0:
                 self.err(path, f"pin {pin.ref} ({pin.diameter_m * mm:g} mm) is larger than hole "
@@ -816,6 +834,56 @@ class _Builder:
                 return None
             return c["min"], c["max"]
         return c, c
+
+    def build_default_fits(self, raw: Any, data: Any) -> tuple[FitRule, ...] | None:
+        """The product's ``default_fits`` rules (None without the key). Each fit must be a
+        valid ISO 286 fit over the rule's whole size range (checked at its ends)."""
+        self.defaulted: dict[PathKey, str] = {}
+        if raw is None:
+            return None
+        if raw is INVALID:  # one rule failed its schema (reported): check the others too
+            if not isinstance(data, list):
+                return None
+            quiet = Context(self.doc, self.ctx.scales, unit_names=self.ctx.unit_names)
+            raw = [DEFAULT_FIT.check(r, ("default_fits", i), quiet) for i, r in enumerate(data)]
+        rules: list[FitRule] = []
+        for i, r in enumerate(raw):
+            if r is INVALID:
+                continue
+            path: PathKey = ("default_fits", i)
+            lo, hi = r["min_diameter"], r["max_diameter"]
+            if lo >= hi:
+                self.err((*path, "min_diameter"), f"expected min_diameter < max_diameter, found "
+                         f"{lo * 1e3:g} mm >= {hi * 1e3:g} mm")
+                continue
+            try:
+                for d in (hi, max(lo * (1 + 1e-9), min(hi, 1e-3))):
+                    iso286.fit(r["fit"], d)
+            except iso286.FitError as exc:
+                self.err((*path, "fit"), f'expected an ISO 286 fit valid from {lo * 1e3:g} to '
+                         f'{hi * 1e3:g} mm, found "{r["fit"]}": {exc}')
+                continue
+            rules.append(FitRule(r["male"], r["female"], hi, iso286_normal(r["fit"]), r["why"],
+                                 lo, source=f"{self.doc.file}:{self.doc.where(path)[0]}"))
+        return tuple(rules)
+
+    def default_fit_clearance(self, path: PathKey, pin: Feature, hole: Feature
+                              ) -> tuple[float, float] | None:
+        """A line-to-line mate without a fit, with ``default_fits`` given: the first matching
+        rule of the product's, then the built-in rules (:mod:`asmplan.knowledge.fit_rules`)."""
+        rules = (*(self.default_fits or ()), *builtin_rules())
+        rule = default_fit(pin.kind, hole.kind, hole.diameter_m, rules)
+        if rule is None:
+            self.err(path, f"expected a fit: no default_fits rule matches {pin.kind} {pin.ref} in "
+                     f"{hole.kind} {hole.ref} at {hole.diameter_m * 1e3:g} mm (line to line)")
+            return None
+        try:
+            f = iso286.fit(rule.fit, hole.diameter_m)
+        except iso286.FitError as exc:
+            self.err(path, f'default fit "{rule.fit}" ({rule.source}) at {hole.diameter_m * 1e3:g} mm: {exc}')
+            return None
+        self.defaulted[path] = rule.fit
+        return f.clearance_min_m, f.clearance_max_m
 
     def resolve_feature(self, ref: str, path: PathKey, parts: dict[str, Part],
                         kinds: tuple[str, ...]) -> Feature | None:
@@ -877,6 +945,28 @@ class _Builder:
                      f"(rules on lines {lines}); expected an order that can be met")
         return Precedence(base=base if base is not INVALID else None, rules=tuple(rules),
                           groups=tuple(groups))
+
+
+def load_default_fits(path: Path | str) -> tuple[FitRule, ...]:
+    """The ``default_fits`` rules of a YAML file (a product file, or a file holding only
+    ``units:`` and ``default_fits:``), for ``asmplan import --default-fits``.
+
+    Raises
+    ------
+    ProductError
+        With every problem found (file, line, key path, expected and found).
+    """
+    doc = load_located(path)
+    b = _Builder(doc, Path(path).resolve().parent)
+    data = doc.data
+    if not isinstance(data, dict) or "default_fits" not in data:
+        raise ProductError([doc.issue((), "expected a YAML mapping with a default_fits list")])
+    b.setup_units(data)
+    raw = ListOf(DEFAULT_FIT).check(data["default_fits"], ("default_fits",), b.ctx)
+    rules = b.build_default_fits(raw, data["default_fits"])
+    if b.ctx.issues:
+        raise ProductError(b.ctx.issues)
+    return rules or ()
 
 
 def iso286_normal(designation: str) -> str:

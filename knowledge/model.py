@@ -23,6 +23,7 @@ from typing import Literal
 import numpy as np
 
 from .arrays import readonly_array
+from .fit_rules import FitRule
 from .materials import Material
 from .robot import JointLimit
 
@@ -366,6 +367,8 @@ class Product:
     resources: Resources
     T_world_product: np.ndarray
     description: str = ""
+    default_fits: tuple[FitRule, ...] = ()
+    """The product's ``default_fits`` rules (the fit of a line-to-line mate without one)."""
 
     def part(self, name: str) -> Part:
         for p in self.parts:

@@ -24,6 +24,7 @@ Steps
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from dataclasses import dataclass, field, replace
@@ -31,7 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..knowledge.fit_rules import FitRule, default_fit
+from ..knowledge.frames import rotation_between
+from ..knowledge.fit_rules import FitRule, builtin_rules, default_fit
 from .cad_features import CadFeature, RecognitionTolerance, fit_mesh_surfaces, line_distance, recognise
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".off")
@@ -63,7 +65,10 @@ class ImportSettings:
         makes a mate; a larger gap is a pass-through (noted, no mate).
     mesh_units_m : metres per unit of mesh files (STEP carries its own unit).
     primitives : write plain (chamfered, bored) cylinders as exact primitives, not meshes.
-    fit_rules : default fits for line-to-line pairs (None: the built-in knowledge).
+    fit_rules : default fits for line-to-line pairs, tried before the built-in ones
+        (``knowledge/data/default_fits.yaml``); e.g. a product file's ``default_fits``
+        (``asmplan import --default-fits``). They are written into the product's
+        ``default_fits:`` section.
     """
 
     deflection_m: float = 2e-6
@@ -124,6 +129,7 @@ class ImportResult:
     base: str
     notes: tuple[str, ...] = field(default_factory=tuple)
     primitives: bool = True
+    fit_rules: tuple[FitRule, ...] = ()
 
     def part(self, name: str) -> ImportedPart:
         return next(p for p in self.parts if p.name == name)
@@ -306,9 +312,11 @@ def propose_mates(parts: list[ImportedPart], settings: ImportSettings, mesh: boo
                 ev.append("pin in a slot: located in one direction only, not simulated")
             elif abs(df - dm) <= line:
                 kind = "fit"
-                fit = default_fit(fm.kind, ff.kind, dm, settings.fit_rules)
+                fit = default_fit(fm.kind, ff.kind, dm, None if settings.fit_rules is None
+                                  else (*settings.fit_rules, *builtin_rules()))
                 ev.append(f"line to line: fit {fit.fit if fit else '?'} from the rules "
-                          f"({fit.why if fit else 'no rule matches'})")
+                          f"({fit.why if fit else 'no rule matches'}"
+                          + (f"; {fit.source}" if fit else "") + ")")
             elif dm < df:
                 if df - dm > settings.max_clearance_ratio * dm:
                     notes.append(f"{pm.name}.{fm.name} passes through {pf.name}.{ff.name} with "
@@ -382,7 +390,7 @@ def import_assembly(path: Path | str, settings: ImportSettings | None = None) ->
                           and _is_nut(parts, m.female_part)})
     base = max(parts, key=lambda p: p.volume_m3).name
     return ImportResult(path, _clean(name), unit, tuple(parts), tuple(mates), tuple(fasteners), base,
-                        tuple(notes + mnotes), settings.primitives)
+                        tuple(notes + mnotes), settings.primitives, settings.fit_rules or ())
 
 
 def _is_nut(parts: list[ImportedPart], name: str) -> bool:
@@ -433,10 +441,34 @@ def _write_stl(path: Path, V_m: np.ndarray, F: np.ndarray) -> None:
     tmp.replace(path)
 
 
-def _start_poses(parts: list[ImportedPart], base: str, frames: dict[str, np.ndarray]
-                 ) -> dict[str, np.ndarray]:
+def _start_rotations(parts: list[ImportedPart], base: str, frames: dict[str, np.ndarray],
+                     mates: list[ProposedMate]) -> dict[str, tuple[np.ndarray, str]]:
+    """World start rotation of each part and why.
+
+    A part waits in its assembled orientation, except a plain cylinder (a dowel, a pin) whose
+    axis is not vertical when assembled: lying on its side it has no flat face a feeder's nest
+    can hold (it would roll), so it stands on the end that leads into its mate (the mate in
+    the base first), as dowels come out of a magazine, and the gripper turns it on the way."""
+    out: dict[str, tuple[np.ndarray, str]] = {}
+    for p in parts:
+        R = frames[p.name][:3, :3]
+        prim = _revolved_primitive(p)
+        if p.name == base or prim is None or abs(float(R[2, 2])) > 1.0 - 1e-9:
+            out[p.name] = (R, "assembled orientation")
+            continue
+        own = [m for m in mates if m.male_part == p.name and m.simulated]
+        own.sort(key=lambda m: (m.female_part != base,))
+        lead = -own[0].axis if own else R[:, 2]
+        Q = rotation_between(np.asarray(lead, float), np.array([0.0, 0.0, -1.0]))
+        out[p.name] = (Q @ R, "standing on its leading end (lying on its side it would roll)")
+    return out
+
+
+def _start_poses(parts: list[ImportedPart], base: str, frames: dict[str, np.ndarray],
+                 rotations: dict[str, tuple[np.ndarray, str]]) -> dict[str, np.ndarray]:
     """World start positions (m): a row of feeders behind the assembly (+y), each part in its
-    assembled orientation with its lowest point 15 mm above the table, 80 mm apart."""
+    start orientation (:func:`_start_rotations`) with its lowest point 15 mm above the table,
+    80 mm apart."""
     world = {p.name: _apply_all(p.T_assembly_part, p.vertices_m) for p in parts}
     y_row = max(float(v[:, 1].max()) for v in world.values()) + 0.12
     x = min(float(v[:, 0].min()) for v in world.values())
@@ -445,6 +477,8 @@ def _start_poses(parts: list[ImportedPart], base: str, frames: dict[str, np.ndar
         if p.name == base:
             continue
         V = world[p.name] - frames[p.name][:3, 3]  # about the part origin, assembled rotation
+        Q = rotations[p.name][0] @ frames[p.name][:3, :3].T
+        V = V @ Q.T
         lo, hi = V.min(axis=0), V.max(axis=0)
         out[p.name] = np.array([x - lo[0], y_row - 0.5 * (lo[1] + hi[1]), 0.015 - lo[2]])
         x += float(hi[0] - lo[0]) + 0.08
@@ -509,7 +543,8 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     w = L.append
     w(f"{_HEADER} from {result.source.name} (file unit: {result.file_unit}).")
     w("# Review before use: every recognised feature and proposed mate carries its evidence;")
-    w("# fits of line-to-line pairs come from the default fit rules (knowledge/data/default_fits.yaml);")
+    w("# fits of line-to-line pairs come from the default fit rules (default_fits below, if any,")
+    w("# then knowledge/data/default_fits.yaml);")
     w("# materials are guessed from the shape (steel for pins, shafts and fasteners).")
     for n in result.notes:
         w(f"# note: {n}")
@@ -522,7 +557,8 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
     w("")
     w("parts:")
     frames = {p.name: _part_frame(p, result.primitives) for p in simulated_parts}
-    starts = _start_poses(simulated_parts, result.base, frames)
+    rotations = _start_rotations(simulated_parts, result.base, frames, mates)
+    starts = _start_poses(simulated_parts, result.base, frames, rotations)
     male_feats: dict[tuple[str, int], str] = {}
     female_used: dict[tuple[str, str], ProposedMate] = {}
     per_part_males: dict[str, list[tuple[int, ProposedMate]]] = {}
@@ -560,8 +596,9 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
         if p.name == result.base:
             w("    fixtured: true   # the largest part: the base, held by a fixture")
         else:
+            R_start, why_start = rotations[p.name]
             w(f"    start: {{location: feeder, xyz: {_vec_mm(starts[p.name])}, "
-              f"rpy: {_vec(_rpy_deg(T[:3, :3]))}}}   # assembled orientation, 15 mm above the table")
+              f"rpy: {_vec(_rpy_deg(R_start))}}}   # {why_start}, 15 mm above the table")
         lines: list[str] = []
         comments: list[str] = []
         T_def = np.linalg.inv(T) @ p.T_assembly_part  # definition frame -> written part frame
@@ -643,6 +680,15 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
                 if name in (m.male_part, m.female_part) and m.kind != "thread":
                     w(f"#     also {m.male_part}.{m.male.name} in {m.female_part}.{m.female.name} ({m.kind})")
     w("")
+    if result.fit_rules:
+        w("# the fits of line-to-line pairs (tried before knowledge/data/default_fits.yaml);")
+        w("# a mate written without a fit whose pin and hole share a diameter gets its fit here")
+        w("default_fits:")
+        for r in result.fit_rules:
+            rng = (f"min_diameter: {_mm(r.min_diameter_m)}, " if r.min_diameter_m else "")
+            w(f"  - {{male: {r.male}, female: {r.female}, {rng}max_diameter: {_mm(r.max_diameter_m)}, "
+              f"fit: {r.fit}, why: {json.dumps(r.why)}}}   # from {r.source}")
+        w("")
     w("precedence:")
     w(f"  base: {result.base}")
     w("")

@@ -587,9 +587,14 @@ class _Selection:
                 continue
             near = d <= s.near_margin_m
             want: LevelOfDetail = self.level if near else "coarse"
-            model, note = self.model_of(other, want, False)
+            # a mate partner the held part does not touch when seated (a washer's bore with
+            # a drawn clearance) is still passed through: it keeps its holes (one coarse hull
+            # would fill the bore the part enters)
+            passed = other in self.mate_partners
+            model, note = self.model_of(other, want, passed)
             reason = (f"obstacle {where}, {d * 1e3:.1f} mm from the swept space "
                       + f"({'<=' if near else '>'} {s.near_margin_m * 1e3:.0f} mm)"
+                      + (f"; mates with {self.held} (passed through)" if passed else "")
                       + f", static; level {model.level}" + (f": {note}" if note else ""))
             obstacles.append(SceneBody(other, "obstacle", False, model.level, self.poses[other],
                                        model.pieces, reason,

@@ -30,6 +30,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-clearance-ratio", type=float, default=0.35,
                    help="a drawn clearance up to this fraction of the pin diameter makes a mate "
                         "(default 0.35)")
+    p.add_argument("--default-fits", metavar="YAML",
+                   help="a YAML file with a default_fits list (a product file, or units: and "
+                        "default_fits: only): the fits of line-to-line pairs, tried before the "
+                        "built-in rules, and written into the product (docs/product-format.md)")
     p.set_defaults(func=run)
 
 
@@ -43,8 +47,18 @@ def run(args: argparse.Namespace) -> int:
         write_product,
     )
 
+    from ..knowledge.errors import ProductError
+    from ..knowledge.loader import load_default_fits
+
+    rules = None
+    if args.default_fits:
+        try:
+            rules = load_default_fits(args.default_fits)
+        except ProductError as exc:
+            print(f"asmplan import: {exc}", file=sys.stderr)
+            return 2
     settings = ImportSettings(mesh_units_m=LENGTH_UNITS[args.mesh_units],
-                              max_clearance_ratio=args.max_clearance_ratio)
+                              max_clearance_ratio=args.max_clearance_ratio, fit_rules=rules)
     try:
         check_outputs(Path(args.output))  # before any work: never overwrite what asmplan did not write
         result = import_assembly(Path(args.assembly), settings)
