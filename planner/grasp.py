@@ -60,6 +60,7 @@ _MIN_CONTACT_POINTS = 3
 _MAX_OFFSETS = 41  # pad centres per axis and candidate frame (the whole part, every depth)
 G_M_S2 = 9.81
 _EDGE_INSET_M = 1e-3  # a finger sticking out on one side keeps its other edge this far in
+_STOP_GAP_M = 2.5e-4  # fingertips stopped this far short of the lead limit
 _ANGLE_STEP_RAD = math.pi / 4
 
 
@@ -362,6 +363,15 @@ def iter_grasps(
                 ins = _unit(insertion_part)
                 reach = (abs(float(x @ ins)) * W / 2 + abs(float(c @ ins)) * (max_width / 2 + T_f)
                          + abs(float(a @ ins)) * L / 2)
+                # approaching along the insertion: also the depth at which the fingertips stop
+                # just short of the lead limit (a dowel pushed into a wall, held by the half
+                # that stays out: a sixth-of-a-finger step can miss it by up to 5 mm)
+                a_ins = float(a @ ins)
+                if abs(a_ins) > 0.5:
+                    for u in us:
+                        v = (lead_limit_m - _STOP_GAP_M - reach - u * float(x @ ins)) / a_ins
+                        if v_lo <= v <= v_hi:
+                            centres.append((u, round(v, 9)))
             for u, v in centres:
                 known = base + (math.hypot(u, v) / size if load is None
                                 else load.torque_cost(math.hypot(u, v), mu, W))

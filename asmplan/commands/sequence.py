@@ -116,15 +116,17 @@ def print_table(plan: SequencePlan, n_parts: int) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..parts.input_warnings import geometry_warnings
 
+    from ..parts.models import ProductGeometry
+
     product = load_product(args.product)
-    for w in geometry_warnings(product):
+    geometry = ProductGeometry(product)
+    for w in geometry_warnings(product, geometry):
         print(f"{args.product}: warning: {w}", file=sys.stderr)
     settings = settings_from_args(args)
     try:
-        from ..parts.models import ProductGeometry
         from ..planner.fcl_oracle import FclOracle
 
-        plan = plan_sequence(product, FclOracle(product, ProductGeometry(product)), settings)
+        plan = plan_sequence(product, FclOracle(product, geometry), settings)
     except PrecedenceConflictError as exc:
         if args.json:
             print(json.dumps({"feasible": False, "error": exc.evidence()}, indent=2, default=str))
