@@ -32,8 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..knowledge.frames import rotation_between
 from ..knowledge.fit_rules import FitRule, builtin_rules, default_fit
+from ..knowledge.frames import rotation_between
 from .cad_features import CadFeature, RecognitionTolerance, fit_mesh_surfaces, line_distance, recognise
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".off")

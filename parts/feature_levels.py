@@ -51,10 +51,12 @@ class FeatureLoss:
     geometry: str
 
     def message(self) -> str:
-        what = "filled" if self.action == "filled" else "bridged (a hull spans from it to the body)"
+        filled = self.action == "filled"
+        what = "filled" if filled else "bridged (a hull spans from it to the body)"
+        where = "in the hole" if filled else "beside the pin"
         return (f'part "{self.part}" ({self.geometry}): {self.kind} {self.feature} is {what} at the '
                 f"{self.level} level that sequence, plan and the simulation use for contact "
-                f"({self.probes_inside} of {self.probes} probe points {'in the hole' if self.action == 'filled' else 'beside the pin'} "
+                f"({self.probes_inside} of {self.probes} probe points {where} "
                 f"lie up to {self.depth_m * 1e3:.2f} mm inside its pieces)")
 
 

@@ -21,7 +21,6 @@ def geometry_warnings(product: Product, geometry: ProductGeometry | None = None)
     ``geometry``: the product's, if already built).
     """
     from .feature_levels import level_warnings
-
     from .meshfile import MeshFileError, multi_body_warning, step_body_names
 
     out: list[str] = []

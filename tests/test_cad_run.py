@@ -45,18 +45,61 @@ def test_imported_fixture_sequences_in_a_physically_right_order(name, tmp_path):
             assert order.index(before) < order.index(after), (name, order)
 
 
-@pytest.mark.slow
-def test_imported_locating_fixture_runs_its_pin_steps_at_fast(tmp_path):
-    """Dowels into the base, the locating plate onto both dowels and both locating pins are
-    planned and simulated successfully at FAST (the workpiece onto a pin and a slot is not: it
-    stops short, see docs/cad-import.md)."""
-    from asmplan.pipeline import RunSettings, run_product
+# The cheapest preset at which each step the ground truth calls feasible succeeds, and why a
+# cheaper one does not (evidence in docs/cad-import.md, "What plans and simulates"). Every
+# H7/g6 fit here (4-5 um smallest clearance) is below every preset's resolution: a FAST
+# success means the pin fits at 0.4 mm resolution, not that the fit is proven.
+PRESET = {
+    "locating_fixture": {
+        "dowel_1": "fast", "dowel_2": "fast", "locating_plate": "fast",
+        "locating_pin_1": "fast", "locating_pin_2": "fast",
+        # the slot's 0.2 mm clearance is below FAST's 0.4 mm: jams 3 mm short at FAST
+        "workpiece": "balanced"},
+    "angle_bracket": {
+        "dowel_1": "fast", "dowel_2": "fast", "post": "fast",
+        # FAST: the 2 mm washer's drop onto the bracket penetrates 0.57 mm (> 0.5 mm)
+        "washer": "balanced",
+        # FAST: stops on the rim of the dowels (0.21 mm off, 1.6 deg) with 0.4 mm resolution
+        "side_block": "balanced",
+    },
+}
 
-    product = _imported("locating_fixture", tmp_path)
-    result = run_product(product, RunSettings(fidelity="fast", workers=1))
-    assert result.results is not None, result.failure
-    ok = {s.part for s in result.results.steps if s.outcome is not None and s.outcome.success}
-    assert {"dowel_1", "dowel_2", "locating_plate", "locating_pin_1", "locating_pin_2"} <= ok
+
+def _feasible(name: str) -> set[str]:
+    import yaml
+
+    truth = yaml.safe_load((CAD / f"{name}.truth.yaml").read_text())
+    return {s["part"] for s in truth["order"] if s["feasible"]}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(PRESET))
+def test_imported_fixture_simulates_every_feasible_step(name, tmp_path):
+    """Import, plan in a physically right order, then simulate every step the ground truth
+    calls feasible at the cheapest preset that resolves it (PRESET)."""
+    from asmplan.pipeline import RunSettings, run_product
+    from asmplan.sim.fidelity import PRESETS
+    from asmplan.sim.simulate import simulate_step
+
+    product = _imported(name, tmp_path)
+    result = run_product(product, RunSettings(fidelity="fast", workers=1, simulate=False))
+    assert result.plan is not None, result.failure
+    order = [s.part for s in result.plan.steps]
+    for before, after in PRECEDENCES[name]:
+        assert order.index(before) < order.index(after), order
+    feasible = _feasible(name)
+    planned = set(order) & feasible
+    # the knob (a 10 mm H7/g6 bore over the post) is the one feasible step no preset
+    # simulates reliably (see docs/cad-import.md): planned, not asserted in simulation
+    assert planned == feasible, feasible - planned
+    failed = {}
+    for i, step in enumerate(result.plan.steps):
+        if step.part not in PRESET[name]:
+            continue
+        r = simulate_step(result.plan, i, product, result.geometry, PRESETS[PRESET[name][step.part]])
+        if not r.success:
+            failed[step.part] = r.outcome.reasons if r.outcome else r
+    assert not failed, failed
 
 
 @pytest.mark.slow

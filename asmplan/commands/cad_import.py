@@ -38,6 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..knowledge.errors import ProductError
+    from ..knowledge.loader import load_default_fits
     from ..parts.cad_import import (
         CadImportError,
         ImportSettings,
@@ -46,9 +48,6 @@ def run(args: argparse.Namespace) -> int:
         summary_lines,
         write_product,
     )
-
-    from ..knowledge.errors import ProductError
-    from ..knowledge.loader import load_default_fits
 
     rules = None
     if args.default_fits:

@@ -115,7 +115,6 @@ def print_table(plan: SequencePlan, n_parts: int) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..parts.input_warnings import geometry_warnings
-
     from ..parts.models import ProductGeometry
 
     product = load_product(args.product)

@@ -15,7 +15,7 @@ import pytest
 import yaml
 
 from asmplan.parts.cad_features import line_distance
-from asmplan.parts.cad_import import import_assembly, write_product
+from asmplan.parts.cad_import import ImportSettings, import_assembly, write_product
 
 CAD = Path(__file__).resolve().parents[1] / "fixtures" / "cad"
 ASSEMBLIES = ("locating_fixture", "bearing_housing", "angle_bracket")
@@ -33,12 +33,34 @@ def _truth(name: str) -> dict:
     return yaml.safe_load((CAD / f"{name}.truth.yaml").read_text())
 
 
-@pytest.fixture(scope="module", params=[(a, src) for a in ASSEMBLIES for src in ("step", "mesh")],
-                ids=lambda p: f"{p[0]}-{p[1]}")
+# the same assemblies in other formats (tests/fixtures/cad/export_variants.py): AP203 and
+# AP242 STEP, a STEP file in inches, PLY meshes (mm) and binary glTF meshes (metres)
+VARIANTS = [("angle_bracket", "step", "angle_bracket_ap203.step", 1e-3),
+            ("angle_bracket", "step", "angle_bracket_ap242.step", 1e-3),
+            ("angle_bracket", "step", "angle_bracket_inch.step", 1e-3),
+            ("locating_fixture", "mesh", "locating_fixture_ply", 1e-3),
+            ("locating_fixture", "mesh", "locating_fixture_glb", 1.0)]
+
+
+@pytest.fixture(scope="module",
+                params=[(a, src, f"{a}.step" if src == "step" else f"{a}_meshes", 1e-3)
+                        for a in ASSEMBLIES for src in ("step", "mesh")] + VARIANTS,
+                ids=lambda p: f"{p[0]}-{p[1]}" if p[2].startswith(f"{p[0]}.") or p[2].endswith("_meshes")
+                else p[2].replace(".step", ""))
 def imported(request):
-    name, src = request.param
-    path = CAD / f"{name}.step" if src == "step" else CAD / f"{name}_meshes"
-    return name, src, import_assembly(path), _truth(name)
+    name, src, file, mesh_units_m = request.param
+    result = import_assembly(CAD / file, ImportSettings(mesh_units_m=mesh_units_m))
+    return name, src, result, _truth(name)
+
+
+def test_step_schemas_and_units_are_read():
+    """The variants really are what they claim: their schema and unit in the file."""
+    head = {f: (CAD / f).read_text()[:200_000] for f in
+            ("angle_bracket_ap203.step", "angle_bracket_ap242.step", "angle_bracket_inch.step")}
+    assert "CONFIG_CONTROL_DESIGN" in head["angle_bracket_ap203.step"]
+    assert "AP242_MANAGED_MODEL_BASED_3D_ENGINEERING" in head["angle_bracket_ap242.step"]
+    assert "CONVERSION_BASED_UNIT('INCH'" in head["angle_bracket_inch.step"]
+    assert import_assembly(CAD / "angle_bracket_inch.step").file_unit == "inch"
 
 
 def _world(result, part: str, f):
