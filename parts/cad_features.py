@@ -92,7 +92,9 @@ class CadFeature:
     ``point_m`` and ``axis`` define the axis line; the feature spans ``t0_m``..``t1_m`` along it
     (chamfers included, a counterbore not). For a female feature, ``axis`` is the outward
     normal of its mouth and ``mouth_m`` the mouth centre (``t1_m`` end, counterbore included);
-    ``depth_m`` is 0 for a through hole. ``kind``: hole, bore, pin, shaft, thread, hex, slot, non_round.
+    ``depth_m`` is 0 for a through hole. ``kind``: hole, bore, pin, shaft, thread, hex, slot,
+    tenon (a rectangular male: width ``diameter_m`` along ``side_axis`` by ``slot_length_m``),
+    mortise (its rectangular female), non_round.
     """
 
     name: str
@@ -112,6 +114,9 @@ class CadFeature:
     across_flats_m: float = 0.0
     slot_length_m: float = 0.0
     evidence: tuple[str, ...] = field(default_factory=tuple)
+    side_axis: np.ndarray | None = None
+    """A tenon's or mortise's width direction (the ``diameter_m`` side; the other side is
+    ``slot_length_m``), part frame."""
 
     @property
     def mouth_m(self) -> np.ndarray:
@@ -264,7 +269,8 @@ def fit_mesh_surfaces(vertices_m: np.ndarray, faces: np.ndarray, *, smooth_angle
         mean_n = (N * W[:, None]).sum(axis=0)
         if np.linalg.norm(mean_n) > 0 and np.all(N @ _unit(mean_n) > math.cos(math.radians(0.5))):
             nrm = _unit(mean_n)
-            c = V.mean(axis=0)
+            c = 0.5 * (V.min(axis=0) + V.max(axis=0))  # the patch's box centre (a hole in it
+            c = c - nrm * float(nrm @ (c - V.mean(axis=0)))  # does not move it), on the plane
             out.append(Surface("plane", c, nrm, 0.0, False, 0.0, 0.0, 0.0, offset_m=float(nrm @ c),
                                area_m2=float(W.sum()), evidence=f"plane fitted to {len(idx)} triangles"))
             continue
@@ -600,6 +606,7 @@ def recognise(surfaces: list[Surface], vertices_m: np.ndarray, faces: np.ndarray
             features.append(CadFeature("", "non_round", True, c.point, c.axis, c.t0, c.t1, 2 * c.radius,
                                        evidence=(f"partial cylinder of {math.degrees(c.span):.0f} deg, "
                                                  "not round, not simulated",)))
+    features += _rectangles(planes, vertices_m, rays, tol, size)
     small = [c for c in partial if not (c.inner and c.span >= math.pi - 0.1)]
     if small:
         notes.append(f"{len(small)} partial cylinders under half a turn (fillets, rounds) ignored")
@@ -615,6 +622,100 @@ def recognise(surfaces: list[Surface], vertices_m: np.ndarray, faces: np.ndarray
         counts[f.kind] = counts.get(f.kind, 0) + 1
         named.append(_rename(f, f"{f.kind}_{counts[f.kind]}"))
     return named, notes
+
+
+def _rectangles(planes: list[Surface], vertices_m: np.ndarray, rays: _Rays | None,
+                tol: RecognitionTolerance, size: float) -> list[CadFeature]:
+    """Rectangular tenons (male) and mortises (female) from plane patches.
+
+    Two pairs of parallel, opposite plane patches with perpendicular normals, whose four
+    centres lie at one depth along the common axis and are centred on each other, bound a
+    rectangular prism: a mortise when each pair's outward normals face each other (the
+    material is outside), a tenon when they face away and the prism is narrower than the part
+    with an end face on its centre line (the tip; its normal is the insertion axis) and a
+    shoulder: a plane facing the same way at its root (so not the part's own box). A mortise's floor is a plane facing out
+    of it on its centre line; without one it is through (measured by rays)."""
+    near = max(tol.distance_m * 10, 2e-5)
+    cos_par = math.cos(max(tol.angle_rad * 10, 1e-6))
+    pairs = []
+    for i, a in enumerate(planes):
+        for b in planes[i + 1:]:
+            if float(np.dot(a.axis, b.axis)) > -cos_par:
+                continue
+            d = float(np.dot(a.axis, b.point_m - a.point_m))
+            if abs(d) <= near:
+                continue
+            pairs.append((a, b, abs(d), d > 0))
+    out: list[CadFeature] = []
+    seen: list[np.ndarray] = []
+    ext = np.ptp(vertices_m, axis=0) if len(vertices_m) else np.zeros(3)  # through mortises
+    for i, (a1, b1, w1, in1) in enumerate(pairs):
+        for a2, b2, w2, in2 in pairs[i + 1:]:
+            if in1 != in2 or abs(float(np.dot(a1.axis, a2.axis))) > 1e-6 + (1 - cos_par):
+                continue
+            u, v = a1.axis, a2.axis
+            axis = _unit(np.cross(u, v))
+            cu = 0.5 * float(np.dot(a1.point_m + b1.point_m, u))
+            cv = 0.5 * float(np.dot(a2.point_m + b2.point_m, v))
+            walls = (a1, b1, a2, b2)
+            ws = [float(np.dot(s.point_m, axis)) for s in walls]
+            if max(ws) - min(ws) > near:
+                continue
+            if any(abs(float(np.dot(s.point_m, v)) - cv) > near for s in (a1, b1)) or \
+                    any(abs(float(np.dot(s.point_m, u)) - cu) > near for s in (a2, b2)):
+                continue
+            w_mid = float(np.mean(ws))
+            centre = cu * u + cv * v + w_mid * axis
+            if any(np.linalg.norm(centre - c) <= near for c in seen):
+                continue
+            ends = [s for s in planes if abs(float(np.dot(s.axis, axis))) >= cos_par and
+                    line_distance(centre, axis, s.point_m) <= near + 0.5 * min(w1, w2)]
+            if not in1:  # tenon: its tip on the centre line, a shoulder facing the same way at its root
+                tips = [s for s in ends if float(np.dot(s.axis, s.point_m - centre)) > near]
+                tip = None
+                for t in sorted(tips, key=lambda s: float(np.dot(s.axis, s.point_m - centre))):
+                    h = float(np.dot(t.axis, t.point_m - centre))
+                    if any(float(np.dot(s.axis, t.axis)) >= cos_par
+                           and abs(float(np.dot(t.axis, s.point_m - centre)) + h) <= near for s in planes):
+                        tip = t
+                        break
+                if tip is None:
+                    continue
+                ax = tip.axis
+                half = float(np.dot(ax, tip.point_m - centre))
+                kind, female, through, depth = "tenon", False, False, 0.0
+                t0, t1 = -half, half
+                how = f"tip face on its centre line, {2 * half * 1e3:.4g} mm long"
+            else:  # mortise: the floor faces out of it; none: through
+                floors = [s for s in ends if float(np.dot(s.axis, centre - s.point_m)) > near]
+                if floors:
+                    fl = min(floors, key=lambda s: float(np.dot(s.axis, centre - s.point_m)))
+                    ax = fl.axis
+                    half = float(np.dot(ax, centre - fl.point_m))
+                    kind, female, through, depth = "mortise", True, False, 2 * half
+                    t0, t1 = -half, half
+                    how = f"floor on its centre line, {2 * half * 1e3:.4g} mm deep"
+                else:
+                    ax = axis
+                    lo = hi = 0.0
+                    if rays is not None:
+                        hi = rays.first_hit(centre, ax)
+                        lo = rays.first_hit(centre, -ax)
+                    if not (math.isfinite(lo) and math.isfinite(hi)):
+                        lo = hi = 0.5 * float(np.abs(ax) @ ext)
+                    kind, female, through, depth = "mortise", True, True, 0.0
+                    t0, t1 = -lo, hi
+                    how = "open at both ends: through"
+            seen.append(centre)
+            side, other = (u, w2) if w1 <= w2 else (v, w1)
+            width = min(w1, w2)
+            out.append(CadFeature(
+                "", kind, female, centre, ax, t0, t1, width, through=through, depth_m=depth,
+                slot_length_m=other, side_axis=side,
+                evidence=(f"rectangular {kind} {width * 1e3:.4g} x {other * 1e3:.4g} mm: two pairs of "
+                          f"parallel planes at right angles, their centres at one depth; {how}; "
+                          "not round, not simulated",)))
+    return out
 
 
 def _rename(f: CadFeature, name: str) -> CadFeature:

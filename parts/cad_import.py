@@ -284,6 +284,15 @@ def propose_mates(parts: list[ImportedPart], settings: ImportSettings, mesh: boo
                 continue
             if abs(float(np.dot(am, af))) < math.cos(ang):
                 continue
+            if (fm.kind == "tenon") != (ff.kind == "mortise"):
+                continue  # a rectangle mates only with a rectangle
+            if ff.kind == "mortise":
+                assert fm.side_axis is not None and ff.side_axis is not None
+                side_m = pm.T_assembly_part[:3, :3] @ fm.side_axis
+                side_f = pf.T_assembly_part[:3, :3] @ ff.side_axis
+                if abs(float(np.dot(side_m, side_f))) < math.cos(ang) or \
+                        fm.diameter_m > ff.diameter_m + dist or fm.slot_length_m > ff.slot_length_m + dist:
+                    continue
             if ff.kind == "slot":
                 if fm.diameter_m > ff.diameter_m + dist:
                     continue
@@ -310,6 +319,11 @@ def propose_mates(parts: list[ImportedPart], settings: ImportSettings, mesh: boo
             if ff.kind == "slot":
                 kind = "non_round"
                 ev.append("pin in a slot: located in one direction only, not simulated")
+            elif ff.kind == "mortise":
+                kind = "non_round"
+                ev.append(f"rectangular tenon {fm.diameter_m * 1e3:.4g} x {fm.slot_length_m * 1e3:.4g} mm in "
+                          f"mortise {ff.diameter_m * 1e3:.4g} x {ff.slot_length_m * 1e3:.4g} mm, sides "
+                          "parallel: not round, not simulated")
             elif abs(df - dm) <= line:
                 kind = "fit"
                 fit = default_fit(fm.kind, ff.kind, dm, None if settings.fit_rules is None

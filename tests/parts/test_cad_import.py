@@ -14,11 +14,12 @@ import numpy as np
 import pytest
 import yaml
 
+from asmplan.knowledge.loader import load_product
 from asmplan.parts.cad_features import line_distance
 from asmplan.parts.cad_import import ImportSettings, import_assembly, write_product
 
 CAD = Path(__file__).resolve().parents[1] / "fixtures" / "cad"
-ASSEMBLIES = ("locating_fixture", "bearing_housing", "angle_bracket")
+ASSEMBLIES = ("locating_fixture", "bearing_housing", "angle_bracket", "mortise_frame")
 
 pytest.importorskip("OCP", reason="STEP import needs cadquery-ocp-novtk (the cad extra)")
 
@@ -88,6 +89,20 @@ def _match(result, gt: dict, src: str):
                     and _angle(axis, want_axis, False) <= abar:
                 return f
             continue
+        if gt["kind"] in ("tenon", "mortise"):
+            side = p_side = None
+            if f.kind == gt["kind"]:
+                T = result.part(gt["part"]).T_assembly_part
+                p_side = T[:3, :3] @ f.side_axis
+                side = np.asarray(gt["side"], float)
+            if f.kind == gt["kind"] and abs(f.diameter_m - gt["width"] * mm) <= dbar(f.diameter_m) and \
+                    abs(f.slot_length_m - gt["length"] * mm) <= dbar(f.slot_length_m) and \
+                    _angle(axis, want_axis, True) <= abar and _angle(p_side, side, False) <= abar and \
+                    line_distance(point, axis, want_at) <= pbar and \
+                    abs(f.length_m - gt["depth"] * mm) <= pbar and (f.kind == "tenon" or (
+                        not f.through and np.linalg.norm(mouth - want_at) <= pbar)):
+                return f
+            continue
         if gt["kind"] == "slot":
             if f.kind == "slot" and abs(f.diameter_m - gt["width"] * mm) <= dbar(f.diameter_m) and \
                     abs(f.slot_length_m - gt["length"] * mm) <= dbar(f.slot_length_m) and \
@@ -112,6 +127,10 @@ def _match(result, gt: dict, src: str):
                 continue
             if female and not f.through:
                 continue
+            if female and not gt.get("counterbore"):  # coaxial segments: the mouth on this one
+                t_at = float(np.dot(want_at - point, axis))
+                if not f.t0_m - pbar <= t_at <= f.t1_m + pbar:
+                    continue
         if abs(f.chamfer_m - gt.get("chamfer", 0.0) * mm) > max(pbar, 1e-6):
             continue
         cb = gt.get("counterbore")
@@ -173,6 +192,27 @@ def test_every_ground_truth_mate_is_proposed_and_no_other(imported):
     extra = [f"{m.male_part}.{m.male.name} in {m.female_part}.{m.female.name} ({m.kind})"
              for m in result.mates if m not in found]
     assert not extra, f"{name}/{src}: mates the ground truth does not have: {extra}"
+
+
+def test_tenons_and_mortises_are_what_they_are(tmp_path):
+    """A rectangular tenon in a mortise is recognised as such, its mate declared not simulated
+    with the evidence in the YAML comments, and never turned into a pin or a hole."""
+    out = tmp_path / "frame.yaml"
+    result = import_assembly(CAD / "mortise_frame.step")
+    write_product(result, out)
+    text = out.read_text()
+    kinds = sorted(f.kind for p in result.parts for f in p.features)
+    assert kinds.count("tenon") == 2 and kinds.count("mortise") == 2
+    assert kinds.count("pin") == 0 and kinds.count("hole") == 3  # the drawbore holes only
+    square = [m for m in result.mates if m.female.kind == "mortise"]
+    assert sorted(m.male_part for m in square) == ["rail_x", "rail_y"]
+    assert all(m.kind == "non_round" and not m.simulated for m in square)
+    assert text.count("rectangular tenon 12 x 60 mm in mortise 12 x 60 mm, sides parallel: not round, "
+                      "not simulated") == 2
+    assert text.count("rectangular mortise 12 x 60 mm: two pairs of parallel planes") == 2
+    assert "type: pin" not in text.split("mates:")[0].split("name: rail_x")[1].split("- name:")[0]
+    product = load_product(out)
+    assert not any(m.pin_part.startswith("rail") for m in product.mates)
 
 
 def test_fastenings_are_declared_not_simulated(imported):
