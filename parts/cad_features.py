@@ -631,10 +631,10 @@ def _rectangles(planes: list[Surface], vertices_m: np.ndarray, rays: _Rays | Non
     Two pairs of parallel, opposite plane patches with perpendicular normals, whose four
     centres lie at one depth along the common axis and are centred on each other, bound a
     rectangular prism: a mortise when each pair's outward normals face each other (the
-    material is outside), a tenon when they face away and the prism is narrower than the part
-    with an end face on its centre line (the tip; its normal is the insertion axis) and a
-    shoulder: a plane facing the same way at its root (so not the part's own box). A mortise's floor is a plane facing out
-    of it on its centre line; without one it is through (measured by rays)."""
+    material is outside), a tenon when they face away, with an end face on its centre line
+    (the tip; its normal is the insertion axis) and a shoulder: a plane facing the same way at
+    its root (so not the part's own box). A mortise's floor is a plane facing out of it on its
+    centre line; without one it is through (measured by rays)."""
     near = max(tol.distance_m * 10, 2e-5)
     cos_par = math.cos(max(tol.angle_rad * 10, 1e-6))
     pairs = []

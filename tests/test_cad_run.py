@@ -51,16 +51,22 @@ def test_imported_fixture_sequences_in_a_physically_right_order(name, tmp_path):
 # success means the pin fits at 0.4 mm resolution, not that the fit is proven.
 PRESET = {
     "locating_fixture": {
-        "dowel_1": "fast", "dowel_2": "fast", "locating_plate": "fast",
+        # FAST: the 4 um fit's entry contact penetrates 0.55-0.59 mm (> 0.5 mm) for dowel_1,
+        # 0.4-0.5 mm for the others
+        "dowel_1": "balanced", "dowel_2": "fast", "locating_plate": "fast",
         "locating_pin_1": "fast", "locating_pin_2": "fast",
         # the slot's 0.2 mm clearance is below FAST's 0.4 mm: jams 3 mm short at FAST
         "workpiece": "balanced"},
     "angle_bracket": {
+        # BALANCED: the 5 um fits jam 0.7-3.7 mm in with 1-6 deg of tilt and the part slips in
+        # the 3 N grip (4-20 N of numerical resistance); the post succeeds at ACCURATE
         "dowel_1": "fast", "dowel_2": "fast", "post": "fast",
         # FAST: the 2 mm washer's drop onto the bracket penetrates 0.57 mm (> 0.5 mm)
         "washer": "balanced",
         # FAST: stops on the rim of the dowels (0.21 mm off, 1.6 deg) with 0.4 mm resolution
         "side_block": "balanced",
+        # knob (a 10 mm H7/g6 bore over the post): FAST ejects it, BALANCED succeeds or jams
+        # 0.7 mm in with the grasp, ACCURATE succeeds (545 s): not simulated here
     },
 }
 
@@ -88,10 +94,8 @@ def test_imported_fixture_simulates_every_feasible_step(name, tmp_path):
     for before, after in PRECEDENCES[name]:
         assert order.index(before) < order.index(after), order
     feasible = _feasible(name)
-    planned = set(order) & feasible
-    # the knob (a 10 mm H7/g6 bore over the post) is the one feasible step no preset
-    # simulates reliably (see docs/cad-import.md): planned, not asserted in simulation
-    assert planned == feasible, feasible - planned
+    assert feasible <= set(order), feasible - set(order)  # every feasible step is planned
+    assert feasible - set(PRESET[name]) <= {"knob"}
     failed = {}
     for i, step in enumerate(result.plan.steps):
         if step.part not in PRESET[name]:
