@@ -95,8 +95,9 @@ def _basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, np.cross(axis, u)
 
 
-def _probes(f: Feature, part_extent_m: float) -> np.ndarray:
-    """Probe points (n, 3), part frame: in a hole over its depth, beside a pin at mid-length."""
+def _probes(f: Feature, vertices_m: np.ndarray) -> np.ndarray:
+    """Probe points (n, 3), part frame: in a hole over its depth (a through hole: the part's
+    extent behind its mouth), beside a pin at mid-length."""
     a = np.asarray(f.axis, float)
     u, v = _basis(a)
     r = 0.5 * f.diameter_m
@@ -105,7 +106,8 @@ def _probes(f: Feature, part_extent_m: float) -> np.ndarray:
         mid = f.origin_m + a * 0.5 * f.length_m
         gap = max(1e-3, 0.5 * r)
         return np.array([mid + (r + gap) * d for d in dirs])
-    depth = f.length_m if f.length_m > 0 else part_extent_m
+    depth = f.length_m if f.length_m > 0 and not f.through else \
+        max(0.0, float(((f.origin_m - vertices_m) @ a).max()))
     pts = []
     for t in (0.25, 0.5, 0.75):
         c = f.origin_m - a * t * depth
@@ -125,9 +127,9 @@ def feature_losses(product: Product, geometry: ProductGeometry,
             continue
         model = geometry.collision_model(part.name, level, measured=False)
         mesh = geometry.mesh(part.name).to_trimesh()
-        extent = float(np.linalg.norm(mesh.extents))
+        V = np.asarray(mesh.vertices, float)
         for f in part.features:
-            P = _probes(f, extent)
+            P = _probes(f, V)
             outside = ~mesh.contains(P)
             if f.is_male:  # beside the pin: only where the real part has no material
                 outside &= np.abs(mesh.nearest.signed_distance(P)) > _INSIDE_M
