@@ -38,9 +38,19 @@ def test_example_plans_end_to_end_with_its_press(name):
         assert s.press.press_max_force_N >= s.press.force_N[2]
 
 
-def test_without_the_press_the_bearing_unit_fails_where_a_real_cell_would(tmp_path):
-    text = example_path("bearing_housing").read_text().replace("  press: {max_force: 10000}\n", "")
+@pytest.mark.parametrize("name", PRESS_EXAMPLES)
+def test_without_the_press_each_example_fails_where_a_real_cell_would(tmp_path, name):
+    text = example_path(name).read_text()
+    assert text.count("  press: {max_force: 10000}\n") == 1
     path = tmp_path / "no_press.yaml"
-    path.write_text(text)
-    with pytest.raises(PressRequiredError, match="use a press"):
-        plan_product(_p := load_product(path), ProductGeometry(_p), PlannerSettings())
+    path.write_text(text.replace("  press: {max_force: 10000}\n", ""))
+    product = load_product(path)
+    with pytest.raises(PressRequiredError, match="use a press") as err:
+        plan_product(product, ProductGeometry(product), PlannerSettings())
+    e = err.value
+    # the failing step is a real press fit: its max force is beyond what the grip can push
+    assert e.force_N[2] > e.capacity.force_N
+    assert e.capacity.force_N <= product.gripper_for(e.part).max_force_N * 2
+    mates = {m.name: m for m in product.mates}
+    assert e.mates and all(mates[m].clearance_min_m < 0 for m in e.mates)
+    assert "needs" in str(e) and "gripper max" in str(e)
