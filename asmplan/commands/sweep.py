@@ -85,9 +85,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="plan to sweep (from `asmplan plan`; default: plan the product here)")
     p.add_argument("--fidelity", choices=sorted(PRESETS), default="balanced",
                    help="physics preset (default balanced; it must resolve the clearances)")
-    p.add_argument("--clearance-dist", choices=("uniform", "truncnormal"),
+    p.add_argument("--clearance-dist", choices=("sizes", "uniform", "truncnormal"),
                    default=d.clearance_distribution,
-                   help=f"clearance distribution in each fit range (default {d.clearance_distribution})")
+                   help="clearance distribution in each fit range: 'sizes' draws the actual hole and "
+                   "shaft sizes from the size model that check's probability of interference "
+                   "and press force use (normal in each ISO zone, 6 sigma = zone width); an "
+                   "interfering sample is pressed with its own force "
+                   f"(default {d.clearance_distribution})")
     p.add_argument("--friction-sigma", type=nonnegative_float, default=d.friction_rel_sigma,
                    metavar="REL", help=f"relative 1-sigma friction spread (default {d.friction_rel_sigma:g})")
     p.add_argument("--pose-lateral", type=nonnegative_float, default=d.pose_lateral_m * 1e3,

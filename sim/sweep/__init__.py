@@ -30,7 +30,17 @@ Distributions (documented once; see :class:`SweepSpec`)
 -------------------------------------------------------
 clearance
     Diametral clearance (hole minus pin diameter) of every mate, within its declared fit
-    range ``[clearance_min_m, clearance_max_m]``: ``"uniform"`` over the range, or
+    range ``[clearance_min_m, clearance_max_m]``. ``"sizes"`` (the default) draws the actual
+    sizes with the size model of :mod:`asmplan.knowledge.press_fit` (the one behind ``check``'s
+    ``probability_interference`` and ``press_force_N``): for an ISO fit the hole's and the
+    shaft's actual sizes, each normal, centred in its tolerance zone with 6 sigma = the zone
+    width and truncated to the zone (out-of-zone parts are rejected at inspection), the
+    clearance being their difference; for a declared range the clearance, normal, centred in
+    the range with 6 sigma = its width, truncated to it. Each mate draws its own pair (a
+    feature in two mates is not one shared size). A sample whose clearance is negative
+    interferes: its step is pressed against the Lame force of THAT interference
+    (:func:`.task.sample_press_step`), or fails ``press_required`` when neither the grip nor
+    the cell's press can give it. ``"uniform"`` over the range, or
     ``"truncnormal"``: a normal centred on the middle of the range with sigma = range / 6,
     truncated to the range (the +-3 sigma process-capability reading of a tolerance).
 friction
@@ -99,6 +109,7 @@ from .task import (
     apply_pose_error,
     insertion_frame,
     perturb_product,
+    sample_press_step,
     simulate_sample,
 )
 
@@ -141,6 +152,7 @@ __all__ = [
     "nominal_friction",
     "perturb_product",
     "run_sweep",
+    "sample_press_step",
     "sha256_hex",
     "simulate_sample",
     "summarize",

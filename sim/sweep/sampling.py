@@ -36,8 +36,10 @@ class SweepSpec:
     vary : tuple of str
         Subset of :data:`FACTORS` that vary; the others stay nominal (clearance at the middle
         of its range, friction as declared, zero pose error).
-    clearance_distribution : {"uniform", "truncnormal"}
-        See the module docstring.
+    clearance_distribution : {"sizes", "uniform", "truncnormal"}
+        See the module docstring. ``"sizes"`` (the default) draws the actual hole and shaft
+        sizes from the size model of :mod:`asmplan.knowledge.press_fit` (the model that gives
+        ``check``'s probability of interference and press force).
     friction_rel_sigma : float
         Relative 1-sigma spread of each friction coefficient, in [0, 1/3) so that the
         truncated multiplier stays positive.
@@ -52,7 +54,7 @@ class SweepSpec:
     n_samples: int
     seed: int = 0
     vary: tuple[str, ...] = FACTORS
-    clearance_distribution: Literal["uniform", "truncnormal"] = "uniform"
+    clearance_distribution: Literal["sizes", "uniform", "truncnormal"] = "sizes"
     friction_rel_sigma: float = 0.1
     pose_lateral_m: float = 0.2e-3
     pose_angular_rad: float = math.radians(0.2)
@@ -73,8 +75,8 @@ class SweepSpec:
         # canonical order, no duplicates: the spec (and the journal header) does not depend on
         # how the user listed them
         object.__setattr__(self, "vary", tuple(f for f in FACTORS if f in vary))
-        if self.clearance_distribution not in ("uniform", "truncnormal"):
-            raise ValueError("SweepSpec.clearance_distribution: expected 'uniform' or "
+        if self.clearance_distribution not in ("sizes", "uniform", "truncnormal"):
+            raise ValueError("SweepSpec.clearance_distribution: expected 'sizes', 'uniform' or "
                              f"'truncnormal', found {self.clearance_distribution!r}")
         if self.pose_distribution not in ("normal", "uniform"):
             raise ValueError("SweepSpec.pose_distribution: expected 'normal' or 'uniform', "
@@ -171,16 +173,52 @@ class SampleParams:
 
 @dataclass(frozen=True)
 class ClearanceRange:
-    """A mate's declared diametral clearance range [min_m, max_m] (negative: interference)."""
+    """A mate's declared diametral clearance range [min_m, max_m] (negative: interference).
+
+    ``hole_zone_m``/``shaft_zone_m``: the (lower, upper) deviations of the hole's and the
+    shaft's ISO 286 tolerance zones when the mate is an ISO fit (their difference spans
+    [min_m, max_m]); None for a mate declared by its clearance range.
+    """
 
     mate: str
     min_m: float
     max_m: float
+    hole_zone_m: tuple[float, float] | None = None
+    shaft_zone_m: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.min_m) and math.isfinite(self.max_m) and self.min_m <= self.max_m):
             raise ValueError(f"ClearanceRange {self.mate}: expected finite min <= max, found "
                              f"[{self.min_m}, {self.max_m}]")
+        if (self.hole_zone_m is None) != (self.shaft_zone_m is None):
+            raise ValueError(f"ClearanceRange {self.mate}: expected both tolerance zones or "
+                             "neither")
+        if self.hole_zone_m is not None and self.shaft_zone_m is not None:
+            (hl, hu), (sl, su) = self.hole_zone_m, self.shaft_zone_m
+            if not (hl <= hu and sl <= su and abs((hl - su) - self.min_m) < 1e-9
+                    and abs((hu - sl) - self.max_m) < 1e-9):
+                raise ValueError(f"ClearanceRange {self.mate}: expected zones whose difference "
+                                 f"spans [{self.min_m}, {self.max_m}], found hole "
+                                 f"{self.hole_zone_m} and shaft {self.shaft_zone_m}")
+
+    def draw_sizes_m(self, rng: np.random.Generator) -> float:
+        """One clearance from the size model (:mod:`asmplan.knowledge.press_fit`), m.
+
+        ISO fit: the actual hole and shaft sizes, each normal, centred in its zone with
+        6 sigma = the zone width and truncated to the zone (parts outside it are rejected at
+        inspection); the clearance is their difference. Declared range: the clearance itself,
+        normal, centred in the range with 6 sigma = its width, truncated to the range.
+        """
+        if self.hole_zone_m is None or self.shaft_zone_m is None:
+            mid, half = 0.5 * (self.min_m + self.max_m), 0.5 * (self.max_m - self.min_m)
+            return mid + half * _truncated_standard_normal(rng) / _TRUNC_Z
+
+        def size(zone: tuple[float, float]) -> float:
+            lo, hi = zone
+            return 0.5 * (lo + hi) + 0.5 * (hi - lo) * _truncated_standard_normal(rng) / _TRUNC_Z
+
+        hole = size(self.hole_zone_m)
+        return hole - size(self.shaft_zone_m)
 
 
 def factor_rng(seed: int, index: int, name: str) -> np.random.Generator:
@@ -243,7 +281,9 @@ def draw_sample(
         if "clearance" not in spec.vary or c.max_m == c.min_m:
             continue  # not varied: the mate keeps its declared fit, as `asmplan run` has it
         rng = factor_rng(spec.seed, index, f"clearance/{c.mate}")
-        if spec.clearance_distribution == "uniform":
+        if spec.clearance_distribution == "sizes":
+            clear[c.mate] = float(c.draw_sizes_m(rng))
+        elif spec.clearance_distribution == "uniform":
             clear[c.mate] = float(rng.uniform(c.min_m, c.max_m))
         else:
             mid, half = 0.5 * (c.min_m + c.max_m), 0.5 * (c.max_m - c.min_m)
@@ -278,8 +318,21 @@ def draw_samples(
 
 
 def clearance_ranges(product: Any) -> tuple[ClearanceRange, ...]:
-    """The declared clearance range of every mate of a :class:`~asmplan.knowledge.model.Product`."""
-    return tuple(ClearanceRange(m.name, m.clearance_min_m, m.clearance_max_m) for m in product.mates)
+    """The declared clearance range of every mate of a :class:`~asmplan.knowledge.model.Product`,
+    with the hole's and the shaft's tolerance zones for an ISO fit (at the hole's nominal
+    diameter, as :func:`asmplan.knowledge.press_fit.clearance_model` has them)."""
+    from ...knowledge import iso286
+
+    out = []
+    for m in product.mates:
+        if m.fit:
+            f = iso286.fit(m.fit, product.feature(m.hole_part, m.hole_feature).diameter_m)
+            out.append(ClearanceRange(m.name, m.clearance_min_m, m.clearance_max_m,
+                                      (f.hole.lower_m, f.hole.upper_m),
+                                      (f.shaft.lower_m, f.shaft.upper_m)))
+        else:
+            out.append(ClearanceRange(m.name, m.clearance_min_m, m.clearance_max_m))
+    return tuple(out)
 
 
 def nominal_friction(product: Any) -> dict[str, float]:

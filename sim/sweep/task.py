@@ -19,6 +19,70 @@ except ImportError:  # pragma: no cover - Windows
     fcntl = None  # type: ignore[assignment]
 
 
+def sample_press_step(plan: Any, index: int, product: Any, geometry: Any,
+                      press_fits: Any = None) -> tuple[Any, dict[str, Any] | None]:
+    """Step ``index`` of ``plan`` as the sample's actual sizes have it (``product``: the
+    perturbed product, ``geometry`` its geometry), or a ``press_required`` failure.
+
+    The press force of every mate the step engages is predicted for the sample's clearance
+    with the model ``check`` and the planner use (:mod:`asmplan.knowledge.press_fit`,
+    :func:`asmplan.planner.press.press_operation`): a sample whose fit interferes needs the
+    Lame force of ITS interference, one that does not needs none.
+
+    * The plan hands the part to the cell's press (``step.press.by == "press"``): the press
+      seats it against the sample's force (0 N for a sample without interference), or the
+      step fails ``press_required`` when that force is above the press's max force.
+    * Otherwise the robot pushes: the step is a gripper press with the sample's force when it
+      interferes, a plain insertion when it does not, and fails ``press_required`` when the
+      sample needs more than the grip can push (less friction than planned for; the plan
+      would have to hand the part to a press).
+
+    Returns
+    -------
+    step : asmplan.planner.plan.Step
+    failure : dict or None
+        ``{"reason", "needed_N", "capacity_N"}`` when the step cannot be done as planned.
+    """
+    from dataclasses import replace
+
+    from ...planner.plan import assembly_state
+    from ...planner.press import PressRequiredError, press_operation, product_press_fits
+
+    step = plan.steps[index]
+    planned = step.press
+    if step.kind == "fixture" or step.trajectory is None:
+        return step, None
+    fits = product_press_fits(product, geometry) if press_fits is None else press_fits
+    placed = sorted(assembly_state(plan, index).placed)
+    mass = float(geometry.mass_properties(step.part).mass_kg)
+    try:
+        op = press_operation(product, step.part, placed, mass, fits, index)
+    except PressRequiredError as e:
+        if planned is not None and planned.by == "press" and (
+                e.press_max_force_N is None or e.force_N[2] <= e.press_max_force_N):
+            op = replace(planned, mates=e.mates, force_N=e.force_N, probability_interference=1.0)
+        else:
+            limit = e.press_max_force_N if e.press_max_force_N is not None else e.capacity.force_N
+            return step, {"reason": f"press_required: {e}", "needed_N": e.force_N[2],
+                          "capacity_N": float(limit)}
+    if planned is not None and planned.by == "press":
+        if op is None:  # no interference in this sample: the press seats it without force
+            op = replace(planned, force_N=(0.0, 0.0, 0.0), probability_interference=0.0)
+        else:
+            op = replace(planned, mates=op.mates, force_N=op.force_N,
+                         probability_interference=op.probability_interference)
+        return replace(step, press=op), None
+    if op is not None and op.by == "press":  # the robot was planned to push; it cannot
+        return step, {"reason": f"press_required: step {index} (part \"{step.part}\"): the "
+                      f"sample's fit needs {op.force_N[2]:.4g} N, more than the grip can push "
+                      f"({op.capacity.force_N:.4g} N, {op.capacity.source}); the plan has the "
+                      "robot push it (a press operation would need another plan)",
+                      "needed_N": op.force_N[2], "capacity_N": op.capacity.force_N}
+    if op is not None and planned is not None:
+        op = replace(op, pass_through_m=planned.pass_through_m)
+    return replace(step, press=op), None
+
+
 def perturb_product(product: Any, params: SampleParams) -> Any:
     """The product as sample ``params`` has it: its clearances and friction coefficients.
 
@@ -98,24 +162,36 @@ def simulate_sample(sweep: PlanSweep, params: SampleParams) -> dict[str, Any]:
     -------
     dict
         ``{"steps": {part: {"success", "reasons", "failed_criteria", "failures", "outcome"}}}``
+        (and ``"press"``: who pressed, the final depth and the peak force, for a press step)
         (``failures``: the failed criteria's values and limits) with the
         outcome's numbers (:class:`~asmplan.sim.records.StepOutcome`, NaN as None, without its
         wall time), JSON-safe.
     """
 
     from ...parts.models import ProductGeometry
+    from ...planner.plan import assembly_state
+    from ...planner.press import product_press_fits
     from ..results import criteria_for
-    from ..simulate import simulate_step
+    from ..simulate import simulate_placed_step
 
     product = perturb_product(sweep.product, params)
     geometry = ProductGeometry(product)
     criteria = criteria_for(sweep.product)
+    fits = product_press_fits(product, geometry)
     out: dict[str, Any] = {}
     for k in sweep.steps:
-        step = sweep.plan.steps[k]
+        step, failure = sample_press_step(sweep.plan, k, product, geometry, fits)
+        if failure is not None:
+            out[step.part] = {"success": False, "reasons": [failure["reason"]],
+                              "failed_criteria": ["press_required"],
+                              "failures": {"press_required": {"value": failure["needed_N"],
+                                                              "limit": failure["capacity_N"]}},
+                              "outcome": None}
+            continue
         err = params.pose_error(step.part)
-        res = simulate_step(sweep.plan, k, product, geometry, sweep.fidelity, criteria=criteria,
-                            pose_error=err if err != PoseError() else None)
+        res = simulate_placed_step(step, assembly_state(sweep.plan, k), product, geometry,
+                                   sweep.fidelity, criteria=criteria,
+                                   pose_error=err if err != PoseError() else None)
         outcome = None if res.outcome is None else res.outcome.to_dict()
         if outcome is not None:
             outcome.pop("wall_time_s", None)
@@ -127,6 +203,9 @@ def simulate_sample(sweep: PlanSweep, params: SampleParams) -> dict[str, Any]:
                           "failed_criteria": list(res.failed_criteria),
                           "failures": failures,
                           "outcome": outcome}
+        if res.press is not None:  # the sample's press: who, how deep, its peak force
+            out[step.part]["press"] = {k: res.press[k] for k in (
+                "by", "final_depth_m", "stroke_m", "peak_force_N", "force_full_typical_N", "home")}
     return {"steps": out}
 
 

@@ -101,7 +101,7 @@ def chamfer_insertion_expected(params: sw.SampleParams) -> bool:
 
 
 def chamfer_samples(n: int, seed: int = 7, **spec_kw: object) -> tuple[sw.SweepSpec, list[sw.SampleParams]]:
-    kw: dict = {"pose_distribution": "uniform", "pose_lateral_m": 1.0e-3, "pose_angular_rad": 0.0}
+    kw: dict = {"clearance_distribution": "uniform", "pose_distribution": "uniform", "pose_lateral_m": 1.0e-3, "pose_angular_rad": 0.0}
     kw.update(spec_kw)
     spec = sw.SweepSpec(n_samples=n, seed=seed, **kw)
     return spec, sw.draw_samples(spec, [CLEARANCE], FRICTION, [STEP])
@@ -222,7 +222,7 @@ def test_sample_distributions_match_their_definition() -> None:
         spec = sw.SweepSpec(n_samples=n, seed=5, **kw)
         return sw.draw_samples(spec, [CLEARANCE], FRICTION, [STEP])
 
-    uni = np.array([s.clearance_m[MATE] for s in draws()])
+    uni = np.array([s.clearance_m[MATE] for s in draws(clearance_distribution="uniform")])
     assert lo <= uni.min() and uni.max() <= hi
     assert uni.mean() == pytest.approx(mid, abs=4 * rng_w / math.sqrt(12 * n))
     assert uni.std() == pytest.approx(rng_w / math.sqrt(12), rel=0.05)
