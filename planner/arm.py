@@ -16,9 +16,11 @@ squares on the SE(3) log error (pinocchio's ``log6`` and ``Jlog6``), converging 
   A 6-axis arm without a closed form has at most 16 branches; the seeds find the ones the
   limits allow in practice (tests check FK(IK(T)) = T and the branch count of the xArm 6).
 * **along a path** (:meth:`ArmModel.track`): from one branch at the path's first pose, every
-  next pose is solved from the previous solution (continuity). A solution that moves any
-  joint more than :attr:`ArmSettings.max_joint_jump_rad` between two samples 10 ms apart is a
-  branch change or a singularity: the branch fails there.
+  next pose is solved from the previous solutions (continuity): started from their linear
+  extrapolation and solved by Newton's chord method with the previous pose's Jacobian
+  inverse (a fresh damped step where that converges slowly). A solution that moves any
+  joint more than :attr:`ArmSettings.max_joint_jump_rad` between two samples 10 ms apart is
+  a branch change or a singularity: the branch fails there.
 
 Margins: the joint-limit margin (smallest distance of a joint to its limit, rad, and which
 joint) and Yoshikawa's manipulability ``sqrt(det(J J^T))`` of the 6x6 Jacobian, reported as a
@@ -35,11 +37,21 @@ part at its current pose (the moving part at its start pose until the clamp, at 
 pose from the release on), the gripper and the carried part (links more than two joints from
 the flange) and the other links (pairs that are not neighbours and not in contact at every
 one of 200 seeded configurations, the usual "allowed collision" rule). The check is
-conservative advancement in joint space: at a state whose bodies are ``d`` apart, no point of
-a link moves farther than ``sum_j rho_j |dq_j|`` (``rho_j`` bounds the distance from joint
-``j`` to any point beyond it, tool and carried part included), so the next state checked is
-where that bound reaches ``d`` (``d / 2`` for two moving bodies); closer than
-:attr:`ArmSettings.check_step_m` the states are checked for contact at that step.
+conservative advancement in joint space (:meth:`ArmPlanner._advance`): at a state whose bodies
+are ``d`` apart, the next state checked is where a bound of the travel of any point of the
+bodies (relative to each other: only the joints between them count) reaches ``d`` (``d``
+floored at :attr:`ArmSettings.check_step_m`; closer than that, the states are checked for
+contact at that step). Two bounds are used and the farther state taken (both hold):
+
+* along the current linear leg ``q + s dq``: the speed at ``s = 0`` of the body's bounding
+  sphere (centre velocity plus angular velocity times radius, from pinocchio's joint
+  Jacobian) ``A``, and a configuration-free bound ``B`` of the acceleration of any point,
+  ``sum_j |dq_j| (2 R_j sum_{i<j} |dq_i| + sum_{i>=j} |dq_i| R_i)`` (``R_j`` bounds the
+  distance of the body's points from joint ``j``, the triangle inequality over the joint
+  offsets): the travel is at most ``A s + B s^2 / 2``;
+* across legs (dense paths): ``sum_j C_j (r_j + sum_{i>j} R_i C_i)`` with ``C_j`` the joints'
+  path lengths from the state and ``r_j`` the sphere's distance from joint ``j``'s axis at
+  the state.
 
 Timing
 ------
@@ -81,6 +93,7 @@ from .timing import min_jerk_duration_s
 from .trajectory import PhaseSpan, Trajectory
 
 ARM_PREFIX = "arm:"
+CARRIED = "@carried"  # the carried part in the conservative-advancement bookkeeping
 _TWO_PI = 2.0 * math.pi
 
 
@@ -232,6 +245,93 @@ class ArmModel:
                 dq *= 0.5 / n
             q = q + dq
         return q, False
+
+    def track(self, T_world_tcp: np.ndarray, q0: np.ndarray, max_iter: int = 30
+              ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
+        """IK along a densely sampled path ``T_world_tcp`` (N, 4, 4) from ``q0`` (a solution
+        at the first pose), each pose solved from the previous solution.
+
+        Each pose starts from the previous two solutions extrapolated (the samples are
+        evenly timed) and is solved by Newton's chord method: the inverse of the flange
+        Jacobian at the previous solution (refreshed, and damped least squares used instead,
+        when an iteration does not cut the error tenfold). Converged to the same tolerance as
+        :meth:`solve`.
+
+        Returns
+        -------
+        Q : (N, 6) float array
+            The solutions (rows from ``n_ok`` on are undefined).
+        n_ok : int
+            The first pose that did not converge (N when all did).
+        manipulability : (N,) float array
+            Yoshikawa's ``|det J|`` at each solution.
+        tcp_error_m : (N,) float array
+            Distance of FK's TCP from the pose's, m.
+        """
+        model, data, fid = self.model, self.data, self.flange_id
+        frame = model.frames[fid]
+        parent, placement = frame.parentJoint, frame.placement
+        tol_p2 = self.settings.ik_tolerance_m ** 2
+        tol_r2 = self.settings.ik_tolerance_rad ** 2
+        n = len(T_world_tcp)
+        Tb = self.T_base_world @ np.asarray(T_world_tcp, float) @ self.T_tcp_flange
+        Q = np.empty((n, 6))
+        Js = np.empty((n, 6, 6))
+        Ms = np.empty((n, 4, 4))
+        q = np.array(q0, float)
+        q_prev: np.ndarray | None = None
+        Jinv: np.ndarray | None = None
+        lam_I = 1e-6 * np.eye(6)
+        for k in range(n):
+            if k > 0 and np.array_equal(T_world_tcp[k], T_world_tcp[k - 1]):
+                Q[k], Js[k], Ms[k] = Q[k - 1], Js[k - 1], Ms[k - 1]
+                continue
+            target = pin.SE3(Tb[k])
+            x = q if q_prev is None else 2.0 * q - q_prev
+            last = math.inf
+            ok = False
+            for it in range(max_iter):
+                pin.forwardKinematics(model, data, x)
+                M = (data.oMi[parent] * placement).actInv(target)
+                err = pin.log6(M).vector
+                ep, er = float(err[:3] @ err[:3]), float(err[3:] @ err[3:])
+                if ep < tol_p2 and er < tol_r2:
+                    ok = True
+                    break
+                size = ep + er
+                if it == 20 and size > 1e-4:
+                    break
+                if Jinv is None or size > 1e-2 * last:  # slow: a fresh damped Newton step
+                    J = pin.Jlog6(M) @ pin.computeFrameJacobian(model, data, x, fid, pin.LOCAL)
+                    dq = J.T @ np.linalg.solve(J @ J.T + lam_I, err)
+                    Jinv = None
+                else:
+                    dq = Jinv @ err
+                step = float(dq @ dq)
+                if step > 0.25:  # trust region: big steps cross branches
+                    dq *= 0.5 / math.sqrt(step)
+                x = x + dq
+                last = size
+            if not ok:
+                return Q, k, np.abs(np.linalg.det(Js[:k])) if k else np.zeros(0), \
+                    self._tcp_errors(Ms[:k])
+            J = pin.computeFrameJacobian(model, data, x, fid, pin.LOCAL)
+            Js[k] = J
+            Ms[k] = M.homogeneous
+            try:
+                Jinv = np.linalg.inv(J)
+            except np.linalg.LinAlgError:
+                Jinv = None
+            q_prev, q = q, x
+            Q[k] = x
+        return Q, n, np.abs(np.linalg.det(Js)), self._tcp_errors(Ms)
+
+    def _tcp_errors(self, Ms: np.ndarray) -> np.ndarray:
+        """TCP position errors (K,), m, of residual flange transforms ``Ms`` (K, 4, 4)
+        (``M = oMf^-1 target``: the TCP is off by ``|R_M t + p_M - t|``, ``t`` the
+        flange-to-TCP offset)."""
+        t = self.T_flange_tcp[:3, 3]
+        return np.linalg.norm(Ms[:, :3, :3] @ t + Ms[:, :3, 3] - t, axis=1)
 
     def _in_limits(self, q: np.ndarray) -> np.ndarray | None:
         """The representation ``q + 2 pi k`` within the limits nearest to zero, or None."""
@@ -439,6 +539,10 @@ class ArmPlanner:
                            if self.chain_index[ln] <= len(urdf.links) - 3]
         self.self_pairs = self._self_pairs(urdf.links)
         self._bounds = self._reach_bounds()
+        self._link_sphere = self._link_spheres()
+        fl = m.frames[self.arm.flange_id]
+        assert fl.parentJoint == 6
+        self._tcp_in_joint6 = fl.placement.act(self.arm.T_flange_tcp[:3, 3].copy())
         self.last_q: np.ndarray | None = None
         self._poses: dict[str, np.ndarray] = {}
 
@@ -461,33 +565,82 @@ class ArmPlanner:
                 break
         return [p for p in cand if p not in always]
 
-    def _reach_bounds(self) -> tuple[np.ndarray, float]:
-        """Per joint, the sum of the joint offsets beyond it up to the flange frame, and the
-        largest distance of a link's collision geometry from its own frame (m)."""
+    def _reach_bounds(self) -> tuple[np.ndarray, dict[str, float], float]:
+        """The joint offsets (6,): ``offs[i]`` is the distance of joint ``i``'s origin from
+        joint ``i - 1``'s (m); per link body, the largest distance of its collision geometry
+        from its parent joint's origin (the link frame's offset plus its farthest point); and
+        the flange frame's distance from joint 6's origin (m)."""
         m = self.arm.model
-        offsets = [float(np.linalg.norm(m.jointPlacements[i].translation))
-                   for i in range(1, m.njoints)]
-        flange = float(np.linalg.norm(m.frames[self.arm.flange_id].placement.translation))
-        beyond = np.array([sum(offsets[j + 1:]) + flange for j in range(6)])
-        ext = 0.0
-        for model in self.models.values():
+        offs = np.array([float(np.linalg.norm(m.jointPlacements[i].translation))
+                         for i in range(1, m.njoints)])
+        ext: dict[str, float] = {}
+        for ln, model in self.models.items():
+            if ln not in self.body:
+                continue
+            e = 0.0
             for p in model.pieces:
+                R, t = p.T_part_piece[:3, :3], p.T_part_piece[:3, 3]
                 if p.vertices_m is not None:
-                    r = float(np.linalg.norm(p.vertices_m, axis=1).max())
+                    r = float(np.linalg.norm(p.vertices_m @ R.T + t, axis=1).max())
                 elif p.half_extents_m is not None:
-                    r = float(np.linalg.norm(p.half_extents_m))
+                    c = np.array(list(itertools.product(*[(-h, h) for h in p.half_extents_m])))
+                    r = float(np.linalg.norm(c @ R.T + t, axis=1).max())
                 else:
-                    r = math.hypot(p.radius_m, p.length_m / 2)
-                ext = max(ext, float(np.linalg.norm(p.T_part_piece[:3, 3])) + r)
-        return beyond, ext
+                    r = float(np.linalg.norm(t)) + math.hypot(p.radius_m, p.length_m / 2)
+                e = max(e, r)
+            frame = float(np.linalg.norm(m.frames[m.getFrameId(ln)].placement.translation))
+            ext[self.body[ln]] = frame + e
+        flange = float(np.linalg.norm(m.frames[self.arm.flange_id].placement.translation))
+        return offs, ext, flange
 
-    def rho(self, tool_radius_m: float) -> np.ndarray:
-        """Per joint, a bound of the distance from its axis to any point of the links beyond
-        it and of the tool (gripper and carried part within ``tool_radius_m`` of the TCP):
-        the triangle inequality over the joint offsets, m."""
-        beyond, ext = self._bounds
-        tool = float(np.linalg.norm(self.arm.T_flange_tcp[:3, 3])) + tool_radius_m
-        return beyond + max(ext, tool)
+    def _link_spheres(self) -> dict[str, tuple[int, np.ndarray, float]]:
+        """Per link body: its parent joint, the centre (3,) of its bounding sphere in that
+        joint's frame (the centre of its collision geometry's box) and the radius, m."""
+        m = self.arm.model
+        out = {}
+        for ln in self.links:
+            pts = []
+            for p in self.models[ln].pieces:
+                R, t = p.T_part_piece[:3, :3], p.T_part_piece[:3, 3]
+                if p.vertices_m is not None:
+                    pts.append(p.vertices_m @ R.T + t)
+                elif p.half_extents_m is not None:
+                    c = np.array(list(itertools.product(*[(-h, h) for h in p.half_extents_m])))
+                    pts.append(c @ R.T + t)
+                else:  # a cylinder or a sphere: its bounding box's corners
+                    h = np.array([p.radius_m, p.radius_m, max(p.length_m / 2, p.radius_m)])
+                    c = np.array(list(itertools.product(*[(-v, v) for v in h])))
+                    pts.append(c @ R.T + t)
+            P = np.concatenate(pts)
+            centre = 0.5 * (P.min(axis=0) + P.max(axis=0))
+            e = float(np.linalg.norm(P - centre, axis=1).max())
+            f = m.frames[m.getFrameId(ln)]
+            out[self.body[ln]] = (int(f.parentJoint), f.placement.act(centre), e)
+        return out
+
+    def rho(self, tool_radius_m: float) -> dict[str, np.ndarray]:
+        """Per body (links, the two gripper bodies and :data:`CARRIED` for the carried part),
+        per joint ``j``: a bound (m) of the distance from joint ``j``'s axis to any point of
+        the body, zero for the joints that do not move it. The triangle inequality over the
+        joint offsets from joint ``j`` to the body's parent joint, plus the body's extent
+        about that joint (the tool: the flange offset, the flange-to-TCP offset and
+        ``tool_radius_m``, which bounds the gripper and the carried part about the TCP)."""
+        offs, ext, flange = self._bounds
+        out: dict[str, np.ndarray] = {}
+
+        def chain(depth: int, extent: float) -> np.ndarray:
+            v = np.zeros(6)
+            for j in range(depth):
+                v[j] = float(offs[j + 1:depth].sum()) + extent
+            return v
+
+        for b in self.bodies:
+            out[b] = chain(self.joint_depth[b], ext[b])
+        tool = chain(6, flange + float(np.linalg.norm(self.arm.T_flange_tcp[:3, 3]))
+                     + tool_radius_m)
+        for t in (self.gripper_closed, self.gripper_open, CARRIED):
+            out[t] = tool
+        return out
 
     def _pose_links(self, q: np.ndarray) -> list[tuple[str, np.ndarray]]:
         poses = self.arm.link_poses(q, self.links)
@@ -557,7 +710,7 @@ class ArmPlanner:
             try:
                 Q, stats = self._track_wrapped(index, part, T, phase_idx, names, q0)
                 checked = self._check_path(index, part, Q, phase_idx, names, T_tcp_part,
-                                           obstacles, T_start, T_final, self.rho(tool_radius_m))
+                                           obstacles, T_start, T_final, tool_radius_m)
                 transfer = self._transfer(index, part, Q[0], obstacles, T_start, T_final,
                                           tool_radius_m, ompl)
             except (ArmPathError, ArmCollisionError, JointLimitError) as exc:
@@ -577,7 +730,7 @@ class ArmPlanner:
                     idx2 = new.phase_indices_at(new.t_s)
                     checked = self._check_path(index, part, Q, idx2, names2, T_tcp_part,
                                                obstacles, T_start, T_final,
-                                               self.rho(tool_radius_m),
+                                               tool_radius_m,
                                                tool_env_phases=("translate",))
                     transfer = self._transfer(index, part, Q[0], obstacles, T_start, T_final,
                                               tool_radius_m, ompl)
@@ -628,7 +781,7 @@ class ArmPlanner:
         def certify(W: np.ndarray) -> int:
             return self._check_path(index, part, W, np.zeros(len(W), int), ["transfer"],
                                     np.eye(4), obstacles, T_start, T_final,
-                                    self.rho(tool_radius_m), tool_env_phases=("transfer",))
+                                    tool_radius_m, tool_env_phases=("transfer",))
 
         W = np.array([ref, q_goal])
         try:  # the straight joint move, certified, when it is free
@@ -772,47 +925,47 @@ class ArmPlanner:
 
     def _track(self, index: int, part: str, T: np.ndarray, phase_idx: np.ndarray,
                names: list[str], q0: np.ndarray) -> tuple[np.ndarray, tuple[float, float, str, float]]:
+        """IK along the path (:meth:`ArmModel.track`), then the first sample (in path order)
+        that fails: no convergence, a joint jump (a branch change or a singularity), a joint
+        within its limit margin, or manipulability below the settings' ratio."""
         arm, s = self.arm, self.settings
-        n = len(T)
-        Q = np.empty((n, 6))
-        Q[0] = q0
-        q = q0
-        worst_w = math.inf
-        worst_m = (math.inf, 0)
-        max_err = 0.0
-        for k in range(n):
-            if k > 0 and np.array_equal(T[k], T[k - 1]):
-                Q[k] = q
-                continue
-            qn, ok = arm.solve(T[k], q, 30)
+        Q, n_ok, w_abs, err = arm.track(T, q0)
+        Qk = Q[:n_ok]
+        jump = np.abs(np.diff(Qk, axis=0)).max(axis=1) if n_ok > 1 else np.zeros(0)
+        margins = np.minimum(Qk - arm.lower, arm.upper - Qk)
+        w = w_abs / arm.best_manipulability
+
+        def first(bad: np.ndarray, offset: int = 0) -> int:
+            i = np.flatnonzero(bad)
+            return int(i[0]) + offset if len(i) else n_ok
+
+        k_jump = first(jump > s.max_joint_jump_rad, 1)
+        k_lim = first(margins.min(axis=1) < s.joint_limit_margin_rad)
+        k_w = first(w < s.min_manipulability_ratio)
+        k = min(n_ok, k_jump, k_lim, k_w)
+        if k < len(T):
             phase = names[int(phase_idx[k])]
-            if not ok:
+            if k == n_ok:
                 raise ArmPathError(index, part, phase, f"inverse kinematics does not converge "
                                    f"near the {phase}'s pose {k} (a singularity or the edge of "
                                    "the workspace)", T[k])
-            jump = np.abs(qn - q)
-            if k > 0 and jump.max() > s.max_joint_jump_rad:
-                j = int(np.argmax(jump))
+            if k == k_jump:
+                d = np.abs(Q[k] - Q[k - 1])
+                j = int(np.argmax(d))
                 raise ArmPathError(index, part, phase, f"{arm.joint_names[j]} jumps "
-                                   f"{math.degrees(jump[j]):.1f} deg between two samples (a "
+                                   f"{math.degrees(d[j]):.1f} deg between two samples (a "
                                    "branch change or a singularity)", T[k])
-            m, j = arm.limit_margin(qn)
-            if m < s.joint_limit_margin_rad:
-                raise JointLimitError(index, part, phase, arm.joint_names[j], float(qn[j]),
+            if k == k_lim:
+                j = int(np.argmin(margins[k]))
+                raise JointLimitError(index, part, phase, arm.joint_names[j], float(Q[k, j]),
                                       float(arm.lower[j]), float(arm.upper[j]), T[k],
                                       along_path=True)
-            w = arm.manipulability(qn) / arm.best_manipulability
-            if w < s.min_manipulability_ratio:
-                raise ArmPathError(index, part, phase, f"manipulability {w * 100:.2f} % of the "
-                                   f"arm's best, below {s.min_manipulability_ratio * 100:.1f} % "
-                                   "(too close to a singularity)", T[k])
-            worst_w = min(worst_w, w)
-            if m < worst_m[0]:
-                worst_m = (m, j)
-            max_err = max(max_err, float(np.linalg.norm(arm.fk(qn)[:3, 3] - T[k][:3, 3])))
-            Q[k] = qn
-            q = qn
-        return Q, (worst_w, worst_m[0], arm.joint_names[worst_m[1]], max_err)
+            raise ArmPathError(index, part, phase, f"manipulability {w[k] * 100:.2f} % of the "
+                               f"arm's best, below {s.min_manipulability_ratio * 100:.1f} % "
+                               "(too close to a singularity)", T[k])
+        flat = int(np.argmin(margins))
+        kk, j = divmod(flat, 6)
+        return Q, (float(w.min()), float(margins[kk, j]), arm.joint_names[j], float(err.max()))
 
     # -- collisions -------------------------------------------------------------------------
     def _phase_setup(self, name: str) -> _Phase:
@@ -823,36 +976,23 @@ class ArmPlanner:
 
     def _check_path(self, index: int, part: str, Q: np.ndarray, phase_idx: np.ndarray,
                     names: list[str], T_tcp_part: np.ndarray, obstacles: Sequence[str],
-                    T_start: np.ndarray, T_final: np.ndarray, rho: np.ndarray,
+                    T_start: np.ndarray, T_final: np.ndarray, tool_radius_m: float,
                     tool_env_phases: Sequence[str] = ()) -> int:
         """Conservative advancement along the joint path ``Q`` (N, 6), linear between
         samples, parametrised by ``u`` in [0, N-1]. Each clearance ``d`` found at a state
-        (body against the cell, or two bodies of the chain) bounds the motion of the joints
-        that move those bodies relative to each other: the next state is where, for every
-        clearance, ``sum_j rho_j |dq_j|`` over its joints reaches ``d``."""
+        (a body against the cell, or two bodies of the chain) bounds the motion of the joints
+        that move those bodies relative to each other: the next state is where, for some
+        clearance, the travel bound of :meth:`_advance` reaches ``d`` (or
+        :attr:`ArmSettings.check_step_m` where ``d`` is smaller: those states are checked for
+        contact)."""
         scene, s = self.scene, self.settings
         checked = 0
-        dQ = np.abs(np.diff(Q, axis=0)) * rho  # (N-1, 6) travel bound per leg and joint
-        cums: dict[tuple[int, int], np.ndarray] = {}
-
-        def cum(mask: tuple[int, int]) -> np.ndarray:
-            c = cums.get(mask)
-            if c is None:
-                c = cums[mask] = np.concatenate([[0.0], np.cumsum(dQ[:, mask[0]:mask[1]].sum(
-                    axis=1))])
-            return c
-
+        # per sample, each joint's path length from the start (N, 6), rad
+        self._leg_dq = np.diff(Q, axis=0) if len(Q) > 1 else np.zeros((1, 6))
+        cumJ = np.concatenate([np.zeros((1, 6)), np.cumsum(np.abs(self._leg_dq), axis=0)])
+        rho = self.rho(tool_radius_m)
+        self._groups: dict[tuple[tuple[str, str], ...], tuple] = {}
         last = len(Q) - 1
-
-        def advance(u: float, mask: tuple[int, int], d: float) -> float:
-            c = cum(mask)
-            k = min(int(u), last - 1)
-            target = c[k] + (u - k) * (c[k + 1] - c[k]) + d
-            i = int(np.searchsorted(c, target, side="right"))
-            if i > last:
-                return float(last)
-            return (i - 1) + (target - c[i - 1]) / (c[i] - c[i - 1])
-
         # phase boundaries: the bodies to check change there, so a state is checked at each
         bounds = [k for k in range(1, len(Q)) if phase_idx[k] != phase_idx[k - 1]]
         starts = [0, *bounds]
@@ -866,13 +1006,13 @@ class ArmPlanner:
                 scene.set_part_pose(part, T_start if phase in ("approach", "transfer")
                                     else T_final)
                 env = [*obstacles, part]
+            tool_env = phase in tool_env_phases
             u = float(k0)
             while True:
                 k = min(int(u), last - 1) if last > 0 else 0
                 f = u - k
                 q = Q[k] + f * (Q[k + 1] - Q[k]) if last > 0 else Q[0]
                 T_tcp = self.arm.fk(q)
-                tool_env = phase in tool_env_phases
                 limits = self._clearance(q, T_tcp, setup, env, T_tcp_part, part, tool_env)
                 checked += 1
                 if min(d for d, _ in limits) <= s.check_step_m:
@@ -883,10 +1023,114 @@ class ArmPlanner:
                                                 self.link_names)
                 if u >= k1 or last == 0:
                     break
-                u_next = min(advance(u, mask, max(d, s.check_step_m)) for d, mask in limits)
+                u_next = self._advance(u, q, limits, cumJ, k1, tool_radius_m, rho)
                 u = min(float(k1), max(u_next, u + 1e-9))
         scene.set_part_pose(part, T_start)
         return checked
+
+    def _advance(self, u: float, q: np.ndarray, limits: list[tuple[float, tuple[str, str]]],
+                 cumJ: np.ndarray, k1: int, tool_radius_m: float, rho: dict[str, np.ndarray]
+                 ) -> float:
+        """The next state to check after ``u`` (the state ``q``) on the path with joint path
+        lengths ``cumJ`` (N, 6), at most ``k1``.
+
+        A point ``p`` of a body moves at ``|sum_j dq_j (v_j + w_j x p)|``: ``r_j = |v_j + w_j x
+        p|`` is its distance from joint ``j``'s axis (``v_j``, ``w_j``: joint ``j``'s twist,
+        pinocchio's joint Jacobian in the base frame). Over the bodies' bounding spheres
+        (centre ``c``, radius ``e``) at ``q``, ``r_j <= |v_j + w_j x c| + e``; while the joints
+        move by path lengths ``C``, ``r_j`` grows by at most ``sum_{i>j} R_i C_i``
+        (``R_i``: :meth:`rho`, the configuration-free bound of the distance from joint ``i``),
+        so a point moves at most ``sum_j C_j (r_j + sum_{i>j} R_i C_i)``, the joints ``j``
+        being those between the two bodies (all that move the body, against the cell). That
+        bound is convex along each linear leg, so the chord's crossing of ``d`` (taken here)
+        comes no later than the bound's own."""
+        arm = self.arm
+        J = pin.computeJointJacobians(arm.model, arm.data, q)  # (6, nv), base frame
+        lin, ang = J[:3].T, J[3:].T  # (6, 3) per joint
+        keys = tuple(key for _, key in limits)
+        plan = self._groups.get(keys)
+        if plan is None:
+            plan = self._groups[keys] = self._group_plan(keys, rho)
+        of, bodies, mask, R = plan
+        if not len(bodies):
+            return float(k1)
+        dist = np.full(len(bodies), math.inf)
+        np.minimum.at(dist, of, np.maximum([d for d, _ in limits], self.settings.check_step_m))
+        sph = [self._sphere(x, tool_radius_m) for x in bodies]
+        c = np.array([v[0] for v in sph])  # (g, 3)
+        e = np.array([v[1] for v in sph])
+        vel = lin[None] + np.cross(ang[None], c[:, None, :])  # (g, 6, 3) per joint at c
+        R0 = (np.linalg.norm(vel, axis=2) + e[:, None]) * mask
+        k = min(int(u), len(cumJ) - 2)
+        dq = mask * self._leg_dq[k]  # (g, 6) this leg's change of the joints that count
+        # within this leg: the speed at q (per unit of the leg) and a bound of the
+        # acceleration; s A + s^2 B / 2 reaches d at s = 2 d / (A + sqrt(A^2 + 2 B d))
+        first = (np.linalg.norm(np.einsum("gj,gjk->gk", dq, vel), axis=1)
+                 + np.linalg.norm(dq @ ang, axis=1) * e)
+        a = np.abs(dq)
+        before = np.cumsum(a, axis=1) - a
+        after = np.cumsum((a * R)[:, ::-1], axis=1)[:, ::-1]
+        second = (a * (2.0 * R * before + after)).sum(axis=1)
+        s_leg = float((2.0 * dist / np.maximum(first + np.sqrt(first ** 2 + 2.0 * second * dist),
+                                               1e-300)).min())
+        u_leg = min(u + s_leg, float(k + 1))
+        # across legs: sum_j C_j (r_j + sum_{i>j} R_i C_i) with the joints' path lengths C
+        c_u = cumJ[k] + (u - k) * (cumJ[k + 1] - cumJ[k])
+        n = np.arange(k + 1, k1 + 1)
+        Cm = (cumJ[n] - c_u)[:, None, :] * mask  # (W, g, 6)
+        travel = (Cm * (R0 + R * (np.cumsum(Cm[:, :, ::-1], axis=2)[:, :, ::-1] - Cm))).sum(axis=2)
+        over = np.flatnonzero((travel >= dist).any(axis=1))
+        if not len(over):
+            return float(k1)
+        w = int(over[0])
+        prev = travel[w - 1] if w > 0 else np.zeros(len(bodies))
+        p0 = float(n[w - 1]) if w > 0 else u
+        cross = travel[w] >= dist
+        frac = (dist[cross] - prev[cross]) / (travel[w][cross] - prev[cross])
+        return max(u_leg, p0 + float(frac.min()) * (float(n[w]) - p0))
+
+    def _group_plan(self, keys: tuple[tuple[str, str], ...], rho: dict[str, np.ndarray]
+                    ) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
+        """For :meth:`_advance`: the clearances ``keys`` grouped by the moving body (the
+        deeper of the two) and the joints between them. Returns each key's group (-1: a
+        rigid pair, whose clearance cannot change), and per group the body, the joint mask
+        (g, 6) and the body's :meth:`rho` (g, 6)."""
+        groups: dict[tuple[str, int, int], int] = {}
+        of = []
+        for a, b in keys:
+            if b == "":
+                x, lo, hi = a, 0, self._depth(a)
+            else:
+                da, db = self._depth(a), self._depth(b)
+                x = b if db >= da else a
+                lo, hi = min(da, db), max(da, db)
+            if hi <= lo:
+                x, lo, hi = "", 0, 0
+            of.append(groups.setdefault((x, lo, hi), len(groups)))
+        bodies = [x for x, _, _ in groups]
+        mask = np.zeros((len(groups), 6))
+        R = np.zeros((len(groups), 6))
+        for g, (x, lo, hi) in enumerate(groups):
+            mask[g, lo:hi] = 1.0
+            if x:
+                R[g] = rho[x if x in rho else CARRIED] * mask[g]
+        return np.array(of, int), bodies, mask, R
+
+    def _depth(self, body: str) -> int:
+        """How many joints move ``body`` (the tool and the carried part: all)."""
+        return self.joint_depth.get(body, 6)
+
+    def _sphere(self, body: str, tool_radius_m: float) -> tuple[np.ndarray, float]:
+        """Bounding sphere of ``body`` at the arm's current configuration (the one of the last
+        :func:`pinocchio.computeJointJacobians`): centre (3,) in the base frame and radius, m.
+        The tool and the carried part: the TCP and ``tool_radius_m``."""
+        arm = self.arm
+        if body == "":
+            return np.zeros(3), 0.0
+        if body in self._link_sphere:
+            joint, c, e = self._link_sphere[body]
+            return arm.data.oMi[joint].act(c), e
+        return arm.data.oMi[6].act(self._tcp_in_joint6), tool_radius_m
 
     def _pose_all(self, q: np.ndarray, setup: _Phase, T_tcp_part: np.ndarray, part: str
                   ) -> None:
@@ -900,12 +1144,12 @@ class ArmPlanner:
 
     def _clearance(self, q: np.ndarray, T_tcp: np.ndarray, setup: _Phase, env: Sequence[str],
                    T_tcp_part: np.ndarray, part: str, tool_env: bool = False
-                   ) -> list[tuple[float, tuple[int, int]]]:
-        """Lower bounds of the clearances at ``q``, m, each with the joints (``lo``, ``hi``:
-        joints ``lo`` .. ``hi - 1``) whose motion can close it: every moving link against
-        the cell (joints up to the link's), and every checked pair of bodies
-        of the chain (the joints between them). Bounding boxes first; exact FCL distances
-        only for boxes closer than 2 cm. Leaves the poses for :meth:`_contacts`."""
+                   ) -> list[tuple[float, tuple[str, str]]]:
+        """Lower bounds of the clearances at ``q``, m, each with the bodies it is between
+        (``(body, "")`` for a body against the cell; the carried part is :data:`CARRIED`), whose
+        relative motion can close it: every moving link against the cell, and every checked
+        pair of bodies of the chain. Bounding boxes first; exact FCL distances only for boxes
+        closer than 2 cm. Leaves the poses for :meth:`_contacts`."""
         scene, world = self.scene, self.scene.world
         enough = 0.02
         poses = dict(zip(self.bodies, self.arm.link_poses(q, self.links), strict=True))
@@ -915,29 +1159,27 @@ class ArmPlanner:
             poses[part] = T_tcp @ T_tcp_part
             tool.append(part)
         self._poses = poses
-        depth = dict(self.joint_depth)
-        for t in tool:
-            depth[t] = 6
         out = []
         # the tool and the carried part against the cell: certified by the motion planner
         # along its Cartesian path, checked here only where the arm planned in joint space
         for b in [*self.moving_bodies, *(tool if tool_env else [])]:
-            out.append((scene.distance_bound([(b, poses[b])], env, enough), (0, depth[b])))
+            out.append((scene.distance_bound([(b, poses[b])], env, enough),
+                        (b if b != part else CARRIED, "")))
         boxes = {b: scene.box_at(b, T) for b, T in poses.items()}
         posed: set[str] = set()
-        for a, b in [*self.self_pairs_bodies(), *[(t, self.body[ln]) for t in tool
+        for a, b in [*self.self_pairs_bodies(), *[(self.body[ln], t) for t in tool
                                                   for ln in self.tool_links]]:
-            mask = (min(depth[a], depth[b]), max(depth[a], depth[b]))
             ba, bb = boxes[a], boxes[b]
+            key = (a, b if b != part else CARRIED)
             gap = float(np.linalg.norm(np.maximum(0.0, np.maximum(bb[0] - ba[1], ba[0] - bb[1]))))
             if gap >= enough:
-                out.append((gap, mask))
+                out.append((gap, key))
                 continue
             for x in (a, b):
                 if x not in posed:
                     world.set_pose(x, poses[x])
                     posed.add(x)
-            out.append((world.distance(a, b), mask))
+            out.append((world.distance(a, b), key))
         return out
 
     def self_pairs_bodies(self) -> list[tuple[str, str]]:
