@@ -17,8 +17,8 @@ squares on the SE(3) log error (pinocchio's ``log6`` and ``Jlog6``), converging 
   limits allow in practice (tests check FK(IK(T)) = T and the branch count of the xArm 6).
 * **along a path** (:meth:`ArmModel.track`): from one branch at the path's first pose, every
   next pose is solved from the previous solutions (continuity): started from their linear
-  extrapolation and solved by Newton's chord method with the previous pose's Jacobian
-  inverse (a fresh damped step where that converges slowly). A solution that moves any
+  extrapolation and solved by Newton's chord method with a recent pose's Jacobian inverse
+  (refreshed every 8 poses; a fresh damped step where that converges slowly). A solution that moves any
   joint more than :attr:`ArmSettings.max_joint_jump_rad` between two samples 10 ms apart is
   a branch change or a singularity: the branch fails there.
 
@@ -93,7 +93,9 @@ from .timing import min_jerk_duration_s
 from .trajectory import PhaseSpan, Trajectory
 
 ARM_PREFIX = "arm:"
-CARRIED = "@carried"  # the carried part in the conservative-advancement bookkeeping
+CARRIED = "@carried"
+_ENOUGH_M = 0.02  # exact distances only between bodies whose boxes come closer than this
+_STRIDE = 16  # the cross-leg travel bound: every 16th sample first, then the ones between
 _TWO_PI = 2.0 * math.pi
 
 
@@ -226,23 +228,26 @@ class ArmModel:
 
     def _solve(self, target: pin.SE3, q: np.ndarray, max_iter: int) -> tuple[np.ndarray, bool]:
         model, data, fid = self.model, self.data, self.flange_id
-        tol_p = self.settings.ik_tolerance_m
-        tol_r = self.settings.ik_tolerance_rad
-        lam = 1e-6
+        frame = model.frames[fid]
+        parent, placement, oMi = frame.parentJoint, frame.placement, data.oMi
+        tol_p2 = self.settings.ik_tolerance_m ** 2
+        tol_r2 = self.settings.ik_tolerance_rad ** 2
+        lam_I = 1e-6 * np.eye(6)
         for it in range(max_iter):
-            pin.framesForwardKinematics(model, data, q)
-            M = data.oMf[fid].actInv(target)
+            pin.forwardKinematics(model, data, q)
+            M = (oMi[parent] * placement).actInv(target)
             err = pin.log6(M).vector
-            if np.linalg.norm(err[:3]) < tol_p and np.linalg.norm(err[3:]) < tol_r:
+            ep = err[0] * err[0] + err[1] * err[1] + err[2] * err[2]
+            er = err[3] * err[3] + err[4] * err[4] + err[5] * err[5]
+            if ep < tol_p2 and er < tol_r2:
                 return q, True
-            if it == 20 and np.linalg.norm(err) > 1e-2:  # not converging from this seed
+            if it == 20 and ep + er > 1e-4:  # not converging from this seed
                 return q, False
             J = pin.Jlog6(M) @ pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)
-            JJt = J @ J.T
-            dq = J.T @ np.linalg.solve(JJt + lam * np.eye(6), err)
-            n = float(np.linalg.norm(dq))
-            if n > 0.5:  # trust region: big steps cross branches
-                dq *= 0.5 / n
+            dq = J.T @ np.linalg.solve(J @ J.T + lam_I, err)
+            n2 = float(dq @ dq)
+            if n2 > 0.25:  # trust region: big steps cross branches
+                dq *= 0.5 / math.sqrt(n2)
             q = q + dq
         return q, False
 
@@ -253,9 +258,9 @@ class ArmModel:
 
         Each pose starts from the previous two solutions extrapolated (the samples are
         evenly timed) and is solved by Newton's chord method: the inverse of the flange
-        Jacobian at the previous solution (refreshed, and damped least squares used instead,
-        when an iteration does not cut the error tenfold). Converged to the same tolerance as
-        :meth:`solve`.
+        Jacobian at a recent solution (refreshed every 8 poses and after a slow one; a
+        damped least-squares step instead when an iteration does not cut the error a
+        hundredfold). Converged to the same tolerance as :meth:`solve`.
 
         Returns
         -------
@@ -273,17 +278,23 @@ class ArmModel:
         parent, placement = frame.parentJoint, frame.placement
         tol_p2 = self.settings.ik_tolerance_m ** 2
         tol_r2 = self.settings.ik_tolerance_rad ** 2
+        T_world_tcp = np.asarray(T_world_tcp, float)
         n = len(T_world_tcp)
-        Tb = self.T_base_world @ np.asarray(T_world_tcp, float) @ self.T_tcp_flange
+        same = np.zeros(n, bool)  # a repeated pose (the gripper closing or opening)
+        same[1:] = (T_world_tcp[1:] == T_world_tcp[:-1]).all(axis=(1, 2))
+        Tb = self.T_base_world @ T_world_tcp @ self.T_tcp_flange
         Q = np.empty((n, 6))
         Js = np.empty((n, 6, 6))
         Ms = np.empty((n, 4, 4))
         q = np.array(q0, float)
         q_prev: np.ndarray | None = None
         Jinv: np.ndarray | None = None
+        age = 0
         lam_I = 1e-6 * np.eye(6)
+        fk, log6, jac, local, oMi = (pin.forwardKinematics, pin.log6, pin.computeFrameJacobian,
+                                     pin.LOCAL, data.oMi)
         for k in range(n):
-            if k > 0 and np.array_equal(T_world_tcp[k], T_world_tcp[k - 1]):
+            if same[k]:
                 Q[k], Js[k], Ms[k] = Q[k - 1], Js[k - 1], Ms[k - 1]
                 continue
             target = pin.SE3(Tb[k])
@@ -291,10 +302,11 @@ class ArmModel:
             last = math.inf
             ok = False
             for it in range(max_iter):
-                pin.forwardKinematics(model, data, x)
-                M = (data.oMi[parent] * placement).actInv(target)
-                err = pin.log6(M).vector
-                ep, er = float(err[:3] @ err[:3]), float(err[3:] @ err[3:])
+                fk(model, data, x)
+                M = (oMi[parent] * placement).actInv(target)
+                err = log6(M).vector
+                ep = err[0] * err[0] + err[1] * err[1] + err[2] * err[2]
+                er = err[3] * err[3] + err[4] * err[4] + err[5] * err[5]
                 if ep < tol_p2 and er < tol_r2:
                     ok = True
                     break
@@ -302,7 +314,7 @@ class ArmModel:
                 if it == 20 and size > 1e-4:
                     break
                 if Jinv is None or size > 1e-2 * last:  # slow: a fresh damped Newton step
-                    J = pin.Jlog6(M) @ pin.computeFrameJacobian(model, data, x, fid, pin.LOCAL)
+                    J = pin.Jlog6(M) @ jac(model, data, x, fid, local)
                     dq = J.T @ np.linalg.solve(J @ J.T + lam_I, err)
                     Jinv = None
                 else:
@@ -315,13 +327,17 @@ class ArmModel:
             if not ok:
                 return Q, k, np.abs(np.linalg.det(Js[:k])) if k else np.zeros(0), \
                     self._tcp_errors(Ms[:k])
-            J = pin.computeFrameJacobian(model, data, x, fid, pin.LOCAL)
+            J = jac(model, data, x, fid, local)
             Js[k] = J
             Ms[k] = M.homogeneous
-            try:
-                Jinv = np.linalg.inv(J)
-            except np.linalg.LinAlgError:
-                Jinv = None
+            # the chord's Jacobian: refreshed every 8 poses, or when this one was slow
+            age += 1
+            if Jinv is None or age >= 8 or it > 1:
+                try:
+                    Jinv = np.linalg.inv(J)
+                except np.linalg.LinAlgError:
+                    Jinv = None
+                age = 0
             q_prev, q = q, x
             Q[k] = x
         return Q, n, np.abs(np.linalg.det(Js)), self._tcp_errors(Ms)
@@ -489,6 +505,70 @@ class _Phase:
     name: str
     carried: bool  # the part moves with the TCP
     gripper: str  # which gripper body is at the TCP
+
+
+@dataclass(frozen=True, eq=False)
+class _Groups:
+    """The clearances of a stretch grouped for :meth:`ArmPlanner._advance`: each
+    clearance's group ``of``; per group the moving body (the deeper of the two; "" for a
+    rigid pair, whose clearance cannot change), the joints that move it relative to the
+    other body (``mask`` (g, 6), ``live``: any), the quadratic forms (36, g) of the travel
+    bounds' growth terms ``G`` (across legs) and ``H`` (the acceleration along a leg), and
+    the distinct bodies with each group's index among them."""
+
+    of: np.ndarray
+    bodies: list[str]
+    mask: np.ndarray
+    live: np.ndarray
+    G: np.ndarray
+    H: np.ndarray
+    unique: list[str]
+    body_index: np.ndarray
+
+
+def _skew_rows(w: np.ndarray) -> np.ndarray:
+    """(18, 3): rows ``3 j .. 3 j + 2`` are the cross-product matrix of ``w[j]`` (6, 3)."""
+    S = np.zeros((6, 3, 3))
+    S[:, 0, 1], S[:, 0, 2] = -w[:, 2], w[:, 1]
+    S[:, 1, 0], S[:, 1, 2] = w[:, 2], -w[:, 0]
+    S[:, 2, 0], S[:, 2, 1] = -w[:, 1], w[:, 0]
+    return S.reshape(18, 3)
+
+
+class _BoxTier:
+    """World bounding-box gaps of a stretch's clearances (:meth:`ArmPlanner._items`) at the
+    bodies' poses, all at once: each body's model box corners moved to its pose, against the
+    obstacles' world boxes (a body against the cell) or the other body's box (a pair)."""
+
+    def __init__(self, scene, bodies: Sequence[str], env: Sequence[str],
+                 items: Sequence[tuple[str, str]]) -> None:
+        self.corners = np.array([scene.corners[b] for b in bodies])  # (B, 8, 3)
+        where = {b: i for i, b in enumerate(bodies)}
+        self.env_items = np.array([i for i, (_, b) in enumerate(items) if b == ""], int)
+        self.env_body = np.array([where[a] for a, b in items if b == ""], int)
+        self.pair_items = np.array([i for i, (_, b) in enumerate(items) if b != ""], int)
+        self.pair_a = np.array([where[a] for a, b in items if b != ""], int)
+        self.pair_b = np.array([where[b] for a, b in items if b != ""], int)
+        self.env = scene.world.aabbs(env) if len(env) else np.zeros((0, 2, 3))
+        self.n = len(items)
+
+    def gaps(self, poses: np.ndarray) -> np.ndarray:
+        """Box gaps (items,) of the bodies at ``poses`` (B, 4, 4), m."""
+        w = np.einsum("bij,bkj->bki", poses[:, :3, :3], self.corners) + poses[:, None, :3, 3]
+        lo, hi = w.min(axis=1), w.max(axis=1)
+        out = np.empty(self.n)
+        if len(self.env_items):
+            if len(self.env):
+                bl, bh = lo[self.env_body][:, None], hi[self.env_body][:, None]
+                g = np.maximum(0.0, np.maximum(self.env[None, :, 0] - bh, bl - self.env[None, :, 1]))
+                out[self.env_items] = np.sqrt((g * g).sum(axis=2)).min(axis=1)
+            else:
+                out[self.env_items] = math.inf
+        if len(self.pair_items):
+            a, b = self.pair_a, self.pair_b
+            g = np.maximum(0.0, np.maximum(lo[b] - hi[a], lo[a] - hi[b]))
+            out[self.pair_items] = np.sqrt((g * g).sum(axis=1))
+        return out
 
 
 class ArmPlanner:
@@ -979,122 +1059,208 @@ class ArmPlanner:
                     T_start: np.ndarray, T_final: np.ndarray, tool_radius_m: float,
                     tool_env_phases: Sequence[str] = ()) -> int:
         """Conservative advancement along the joint path ``Q`` (N, 6), linear between
-        samples, parametrised by ``u`` in [0, N-1]. Each clearance ``d`` found at a state
-        (a body against the cell, or two bodies of the chain) bounds the motion of the joints
-        that move those bodies relative to each other: the next state is where, for some
-        clearance, the travel bound of :meth:`_advance` reaches ``d`` (or
-        :attr:`ArmSettings.check_step_m` where ``d`` is smaller: those states are checked for
-        contact)."""
+        samples, parametrised by ``u`` in [0, N-1].
+
+        The clearances to keep (:meth:`_items`: every moving link against the cell, every
+        checked pair of bodies of the chain) are measured at a state and each is then
+        certified up to where the travel bound of :meth:`_advance` for the two bodies
+        reaches it (floored at :attr:`ArmSettings.check_step_m`: closer than that, the
+        states are checked for contact at that step). The next state is the earliest end
+        of those stretches. Bounding-box gaps are measured at every state; an exact FCL
+        distance (boxes closer than 2 cm) only when its stretch ends or is more than half
+        used. Consecutive phases with the same bodies (the gripper open or closed, the part
+        carried, at its start or at its final pose) form one stretch; every clearance is
+        measured afresh where the bodies change. Returns the number of states checked."""
         scene, s = self.scene, self.settings
         checked = 0
-        # per sample, each joint's path length from the start (N, 6), rad
         self._leg_dq = np.diff(Q, axis=0) if len(Q) > 1 else np.zeros((1, 6))
+        # per sample, each joint's path length from the start (N, 6), rad
         cumJ = np.concatenate([np.zeros((1, 6)), np.cumsum(np.abs(self._leg_dq), axis=0)])
         rho = self.rho(tool_radius_m)
-        self._groups: dict[tuple[tuple[str, str], ...], tuple] = {}
         last = len(Q) - 1
-        # phase boundaries: the bodies to check change there, so a state is checked at each
-        bounds = [k for k in range(1, len(Q)) if phase_idx[k] != phase_idx[k - 1]]
-        starts = [0, *bounds]
+
+        def bodies_of(k: int) -> tuple:
+            phase = names[int(phase_idx[k])]
+            setup = self._phase_setup(phase)
+            where = "" if setup.carried else ("start" if phase in ("approach", "transfer")
+                                              else "final")
+            return setup.carried, setup.gripper, where, phase in tool_env_phases
+
+        starts = [0, *[k for k in range(1, len(Q)) if bodies_of(k) != bodies_of(k - 1)]]
         for b, k0 in enumerate(starts):
             k1 = starts[b + 1] if b + 1 < len(starts) else last
-            phase = names[int(phase_idx[k0])]
-            setup = self._phase_setup(phase)
-            if setup.carried:
+            carried, gripper, where, tool_env = bodies_of(k0)
+            setup = _Phase(names[int(phase_idx[k0])], carried, gripper)
+            if carried:
                 env = list(obstacles)
             else:
-                scene.set_part_pose(part, T_start if phase in ("approach", "transfer")
-                                    else T_final)
+                scene.set_part_pose(part, T_start if where == "start" else T_final)
                 env = [*obstacles, part]
-            tool_env = phase in tool_env_phases
+            tool = [gripper] + ([part] if carried else [])
+            items = self._items(setup, part, tool_env)
+            keys = [(a if a != part else CARRIED, b if b != part else CARRIED) for a, b in items]
+            plan = self._group_plan(tuple(keys), rho)
+            of = plan.of
+            boxes = _BoxTier(scene, [*self.bodies, *tool], env, items)
+            until = np.full(len(items), -math.inf)  # certified up to here
+            since = np.zeros(len(items))  # from here (where measured)
             u = float(k0)
             while True:
                 k = min(int(u), last - 1) if last > 0 else 0
                 f = u - k
                 q = Q[k] + f * (Q[k + 1] - Q[k]) if last > 0 else Q[0]
                 T_tcp = self.arm.fk(q)
-                limits = self._clearance(q, T_tcp, setup, env, T_tcp_part, part, tool_env)
+                poses = self.arm.link_poses(q, self.links)
+                poses.append(T_tcp)
+                if carried:
+                    poses.append(T_tcp @ T_tcp_part)
+                self._poses = dict(zip([*self.bodies, *tool], poses, strict=True))
+                d = boxes.gaps(np.array(poses))
+                close = d < _ENOUGH_M
+                # exact distances where the boxes are close and the stretch ends (or is more
+                # than half used: fewer states in all); box gaps everywhere else
+                exact = close & ((until <= u) | (until - u <= 0.5 * (until - since)))
+                fresh = ~close | exact
+                for i in np.flatnonzero(exact):
+                    d[i] = self._exact(items[i], env)
                 checked += 1
-                if min(d for d, _ in limits) <= s.check_step_m:
+                if float(d[fresh].min(initial=math.inf)) <= s.check_step_m:
                     hit = self._contacts(setup, env, part, tool_env=tool_env)
                     if hit:
                         scene.set_part_pose(part, T_start)
+                        phase = names[int(phase_idx[min(int(u), last)])]
                         raise ArmCollisionError(index, part, phase, hit, q, T_tcp,
                                                 self.link_names)
                 if u >= k1 or last == 0:
                     break
-                u_next = self._advance(u, q, limits, cumJ, k1, tool_radius_m, rho)
-                u = min(float(k1), max(u_next, u + 1e-9))
+                idx = np.flatnonzero(fresh)
+                groups = np.unique(of[idx])
+                reach = self._advance(u, q, groups, of[idx], d[idx], cumJ, k1, tool_radius_m,
+                                      plan)
+                until[idx] = reach[np.searchsorted(groups, of[idx])]
+                since[idx] = u
+                u = min(float(k1), max(float(until.min()), u + 1e-9))
         scene.set_part_pose(part, T_start)
         return checked
 
-    def _advance(self, u: float, q: np.ndarray, limits: list[tuple[float, tuple[str, str]]],
-                 cumJ: np.ndarray, k1: int, tool_radius_m: float, rho: dict[str, np.ndarray]
-                 ) -> float:
-        """The next state to check after ``u`` (the state ``q``) on the path with joint path
-        lengths ``cumJ`` (N, 6), at most ``k1``.
+    def _items(self, setup: _Phase, part: str, tool_env: bool) -> list[tuple[str, str]]:
+        """The clearances a stretch keeps: ``(body, "")`` a moving body against the cell
+        (every moving link; the tool and the carried part only where ``tool_env``: elsewhere
+        the motion planner certified them along the Cartesian path), and ``(a, b)`` the
+        checked pairs of the chain (links; links against the gripper and the carried part)."""
+        tool = [setup.gripper] + ([part] if setup.carried else [])
+        env_items = [(b, "") for b in [*self.moving_bodies, *(tool if tool_env else [])]]
+        pairs = [*self.self_pairs_bodies(), *[(self.body[ln], t) for t in tool
+                                               for ln in self.tool_links]]
+        return env_items + pairs
 
-        A point ``p`` of a body moves at ``|sum_j dq_j (v_j + w_j x p)|``: ``r_j = |v_j + w_j x
-        p|`` is its distance from joint ``j``'s axis (``v_j``, ``w_j``: joint ``j``'s twist,
-        pinocchio's joint Jacobian in the base frame). Over the bodies' bounding spheres
-        (centre ``c``, radius ``e``) at ``q``, ``r_j <= |v_j + w_j x c| + e``; while the joints
-        move by path lengths ``C``, ``r_j`` grows by at most ``sum_{i>j} R_i C_i``
-        (``R_i``: :meth:`rho`, the configuration-free bound of the distance from joint ``i``),
-        so a point moves at most ``sum_j C_j (r_j + sum_{i>j} R_i C_i)``, the joints ``j``
-        being those between the two bodies (all that move the body, against the cell). That
-        bound is convex along each linear leg, so the chord's crossing of ``d`` (taken here)
-        comes no later than the bound's own."""
-        arm = self.arm
-        J = pin.computeJointJacobians(arm.model, arm.data, q)  # (6, nv), base frame
+    def _exact(self, item: tuple[str, str], env: Sequence[str]) -> float:
+        """The clearance ``item`` (:meth:`_items`) at the poses of :meth:`_check_path`: FCL
+        distances (a body against the cell: exact to the obstacles whose boxes come within
+        2 cm, box gaps to the others), m."""
+        a, b = item
+        if b == "":
+            return self.scene.distance_bound([(a, self._poses[a])], env, _ENOUGH_M)
+        world = self.scene.world
+        world.set_pose(a, self._poses[a])
+        world.set_pose(b, self._poses[b])
+        return world.distance(a, b)
+
+    def _advance(self, u: float, q: np.ndarray, groups: np.ndarray, of: np.ndarray,
+                 d: np.ndarray, cumJ: np.ndarray, k1: int, tool_radius_m: float,
+                 plan: _Groups) -> np.ndarray:
+        """Per group in ``groups`` (sorted indices into ``plan``), how far along the path
+        (``u`` units, at most ``k1``) the smallest of its clearances ``d`` (those with
+        ``of == group``) is certified from the state ``u`` (configuration ``q``) on the path
+        with joint path lengths ``cumJ`` (N, 6).
+
+        A point ``p`` of a body moves at ``|sum_j dq_j (v_j + w_j x p)|`` (``v_j``, ``w_j``:
+        joint ``j``'s twist, pinocchio's joint Jacobian in the base frame; only the joints
+        between the two bodies count). Two bounds of the travel, the farther certified
+        position taken (both hold):
+
+        * along this leg ``q + s dq``: ``A s + B s^2 / 2``, ``A`` the speed of the body's
+          bounding sphere (centre ``c``, radius ``e``) at ``q``,
+          ``|sum_j dq_j (v_j + w_j x c)| + |sum_j dq_j w_j| e``, and ``B`` a
+          configuration-free bound of any point's acceleration,
+          ``sum_j |dq_j| (2 R_j sum_{i<j} |dq_i| + sum_{i>=j} |dq_i| R_i)`` (``R_j``:
+          :meth:`rho`, a bound of the distance of the body's points from joint ``j``);
+        * across legs: ``sum_j C_j (r_j + sum_{i>j} R_i C_i)``, ``C_j`` the joints' path
+          lengths from ``u``, ``r_j = |v_j + w_j x c| + e`` (the sphere's distance from joint
+          ``j``'s axis at ``q``; it grows by at most ``sum_{i>j} R_i C_i``). Nondecreasing
+          along the path, and convex along each leg, so the chord's crossing of ``d``
+          between two samples (taken) comes no later than its own."""
+        floor = self.settings.check_step_m
+        dist = np.full(len(plan.bodies), math.inf)
+        np.minimum.at(dist, of, np.maximum(d, floor))
+        dist = dist[groups]
+        mask = plan.mask[groups]
+        live = plan.live[groups]
+        if not live.any():
+            return np.full(len(groups), float(k1))
+        J = pin.computeJointJacobians(self.arm.model, self.arm.data, q)  # (6, 6), base frame
         lin, ang = J[:3].T, J[3:].T  # (6, 3) per joint
-        keys = tuple(key for _, key in limits)
-        plan = self._groups.get(keys)
-        if plan is None:
-            plan = self._groups[keys] = self._group_plan(keys, rho)
-        of, bodies, mask, R = plan
-        if not len(bodies):
-            return float(k1)
-        dist = np.full(len(bodies), math.inf)
-        np.minimum.at(dist, of, np.maximum([d for d, _ in limits], self.settings.check_step_m))
-        sph = [self._sphere(x, tool_radius_m) for x in bodies]
-        c = np.array([v[0] for v in sph])  # (g, 3)
-        e = np.array([v[1] for v in sph])
-        vel = lin[None] + np.cross(ang[None], c[:, None, :])  # (g, 6, 3) per joint at c
-        R0 = (np.linalg.norm(vel, axis=2) + e[:, None]) * mask
+        # the bounding spheres of the bodies (tool: the TCP, tool_radius_m)
+        bi = plan.body_index[groups]
+        used = np.unique(bi)
+        c = np.zeros((len(plan.unique), 3))
+        e = np.zeros(len(plan.unique))
+        for i in used:
+            c[i], e[i] = self._sphere(plan.unique[i], tool_radius_m)
+        S = _skew_rows(ang)  # (18, 3): the cross products w_j x c as one product
+        vel = lin + (S @ c[used].T).T.reshape(len(used), 6, 3)  # per body and joint at c
+        pos = np.searchsorted(used, bi)
+        vel = vel[pos]  # (g, 6, 3)
+        eg = e[bi]
+        R0 = (np.sqrt((vel * vel).sum(axis=2)) + eg[:, None]) * mask
         k = min(int(u), len(cumJ) - 2)
         dq = mask * self._leg_dq[k]  # (g, 6) this leg's change of the joints that count
-        # within this leg: the speed at q (per unit of the leg) and a bound of the
-        # acceleration; s A + s^2 B / 2 reaches d at s = 2 d / (A + sqrt(A^2 + 2 B d))
-        first = (np.linalg.norm(np.einsum("gj,gjk->gk", dq, vel), axis=1)
-                 + np.linalg.norm(dq @ ang, axis=1) * e)
-        a = np.abs(dq)
-        before = np.cumsum(a, axis=1) - a
-        after = np.cumsum((a * R)[:, ::-1], axis=1)[:, ::-1]
-        second = (a * (2.0 * R * before + after)).sum(axis=1)
-        s_leg = float((2.0 * dist / np.maximum(first + np.sqrt(first ** 2 + 2.0 * second * dist),
-                                               1e-300)).min())
-        u_leg = min(u + s_leg, float(k + 1))
-        # across legs: sum_j C_j (r_j + sum_{i>j} R_i C_i) with the joints' path lengths C
+        v0 = np.einsum("gj,gjk->gk", dq, vel)
+        w0 = dq @ ang
+        first = np.sqrt((v0 * v0).sum(axis=1)) + np.sqrt((w0 * w0).sum(axis=1)) * eg
+        adq = np.abs(self._leg_dq[k])
+        second = np.outer(adq, adq).ravel() @ plan.H[:, groups]
+        # s A + s^2 B / 2 reaches d at s = 2 d / (A + sqrt(A^2 + 2 B d))
+        with np.errstate(divide="ignore"):
+            s_leg = 2.0 * dist / (first + np.sqrt(first * first + 2.0 * second * dist))
+        u_leg = np.minimum(u + s_leg, float(k + 1))
+        # across legs, at the samples after u: every _STRIDE-th first, then the samples
+        # between the last one below d and the first above
         c_u = cumJ[k] + (u - k) * (cumJ[k + 1] - cumJ[k])
-        n = np.arange(k + 1, k1 + 1)
-        Cm = (cumJ[n] - c_u)[:, None, :] * mask  # (W, g, 6)
-        travel = (Cm * (R0 + R * (np.cumsum(Cm[:, :, ::-1], axis=2)[:, :, ::-1] - Cm))).sum(axis=2)
-        over = np.flatnonzero((travel >= dist).any(axis=1))
-        if not len(over):
-            return float(k1)
-        w = int(over[0])
-        prev = travel[w - 1] if w > 0 else np.zeros(len(bodies))
-        p0 = float(n[w - 1]) if w > 0 else u
-        cross = travel[w] >= dist
-        frac = (dist[cross] - prev[cross]) / (travel[w][cross] - prev[cross])
-        return max(u_leg, p0 + float(frac.min()) * (float(n[w]) - p0))
+        G = plan.G[:, groups]  # (36, g)
+
+        n_c = np.arange(k + 1, k1 + 1, _STRIDE)
+        if len(n_c) == 0 or n_c[-1] != k1:
+            n_c = np.append(n_c, k1)
+        C = cumJ[n_c] - c_u  # (Wc, 6)
+        t_c = C @ R0.T + (C[:, :, None] * C[:, None, :]).reshape(len(C), 36) @ G
+        over = t_c >= dist
+        hit = over.any(axis=0)
+        wc = np.argmax(over, axis=0)
+        # fine: per group the samples from the coarse one before the crossing to it
+        lo = np.where(wc > 0, n_c[np.maximum(wc - 1, 0)], k)  # k: the start is u itself
+        idx = np.minimum(lo[:, None] + np.arange(_STRIDE + 1), k1)  # (g, S + 1)
+        Cf = cumJ[idx] - c_u  # (g, S + 1, 6)
+        first_is_u = wc == 0
+        Cf[first_is_u, 0] = 0.0
+        t_f = (np.einsum("gsj,gj->gs", Cf, R0)
+               + np.einsum("gsk,kg->gs", (Cf[..., :, None] * Cf[..., None, :]).reshape(
+                   len(groups), _STRIDE + 1, 36), G))
+        pos_f = idx.astype(float)
+        pos_f[first_is_u, 0] = u
+        j = np.maximum(np.argmax(t_f >= dist[:, None], axis=1), 1)
+        gi = np.arange(len(groups))
+        prev, cur = t_f[gi, j - 1], t_f[gi, j]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            frac = np.clip((dist - prev) / (cur - prev), 0.0, 1.0)
+        u_cross = np.where(hit, pos_f[gi, j - 1] + frac * (pos_f[gi, j] - pos_f[gi, j - 1]),
+                           float(k1))
+        return np.where(live, np.minimum(np.maximum(u_leg, u_cross), float(k1)), float(k1))
 
     def _group_plan(self, keys: tuple[tuple[str, str], ...], rho: dict[str, np.ndarray]
-                    ) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
+                    ) -> _Groups:
         """For :meth:`_advance`: the clearances ``keys`` grouped by the moving body (the
-        deeper of the two) and the joints between them. Returns each key's group (-1: a
-        rigid pair, whose clearance cannot change), and per group the body, the joint mask
-        (g, 6) and the body's :meth:`rho` (g, 6)."""
+        deeper of the two) and the joints between them (:class:`_Groups`)."""
         groups: dict[tuple[str, int, int], int] = {}
         of = []
         for a, b in keys:
@@ -1108,13 +1274,25 @@ class ArmPlanner:
                 x, lo, hi = "", 0, 0
             of.append(groups.setdefault((x, lo, hi), len(groups)))
         bodies = [x for x, _, _ in groups]
+        unique = sorted(set(bodies))
         mask = np.zeros((len(groups), 6))
-        R = np.zeros((len(groups), 6))
+        G = np.zeros((36, len(groups)))
+        H = np.zeros((36, len(groups)))
+        jj, ii = np.meshgrid(np.arange(6), np.arange(6), indexing="ij")  # [j, i]
         for g, (x, lo, hi) in enumerate(groups):
             mask[g, lo:hi] = 1.0
-            if x:
-                R[g] = rho[x if x in rho else CARRIED] * mask[g]
-        return np.array(of, int), bodies, mask, R
+            if not x:
+                continue
+            m = mask[g]
+            R = rho[x] * m
+            mm = np.outer(m, m)
+            # sum_j C_j sum_{i>j} R_i C_i, and sum_j a_j (2 R_j sum_{i<j} a_i +
+            # sum_{i>=j} a_i R_i), as quadratic forms [j, i]
+            G[:, g] = (mm * np.where(ii > jj, R[ii], 0.0)).ravel()
+            H[:, g] = (mm * (np.where(ii < jj, 2.0 * R[jj], 0.0)
+                             + np.where(ii >= jj, R[ii], 0.0))).ravel()
+        return _Groups(np.array(of, int), bodies, mask, mask.any(axis=1), G, H, unique,
+                       np.array([unique.index(x) for x in bodies], int))
 
     def _depth(self, body: str) -> int:
         """How many joints move ``body`` (the tool and the carried part: all)."""
@@ -1141,46 +1319,6 @@ class ArmPlanner:
         if setup.carried:
             poses[part] = T_tcp @ T_tcp_part
         self._poses = poses
-
-    def _clearance(self, q: np.ndarray, T_tcp: np.ndarray, setup: _Phase, env: Sequence[str],
-                   T_tcp_part: np.ndarray, part: str, tool_env: bool = False
-                   ) -> list[tuple[float, tuple[str, str]]]:
-        """Lower bounds of the clearances at ``q``, m, each with the bodies it is between
-        (``(body, "")`` for a body against the cell; the carried part is :data:`CARRIED`), whose
-        relative motion can close it: every moving link against the cell, and every checked
-        pair of bodies of the chain. Bounding boxes first; exact FCL distances only for boxes
-        closer than 2 cm. Leaves the poses for :meth:`_contacts`."""
-        scene, world = self.scene, self.scene.world
-        enough = 0.02
-        poses = dict(zip(self.bodies, self.arm.link_poses(q, self.links), strict=True))
-        poses[setup.gripper] = T_tcp
-        tool = [setup.gripper]
-        if setup.carried:
-            poses[part] = T_tcp @ T_tcp_part
-            tool.append(part)
-        self._poses = poses
-        out = []
-        # the tool and the carried part against the cell: certified by the motion planner
-        # along its Cartesian path, checked here only where the arm planned in joint space
-        for b in [*self.moving_bodies, *(tool if tool_env else [])]:
-            out.append((scene.distance_bound([(b, poses[b])], env, enough),
-                        (b if b != part else CARRIED, "")))
-        boxes = {b: scene.box_at(b, T) for b, T in poses.items()}
-        posed: set[str] = set()
-        for a, b in [*self.self_pairs_bodies(), *[(self.body[ln], t) for t in tool
-                                                  for ln in self.tool_links]]:
-            ba, bb = boxes[a], boxes[b]
-            key = (a, b if b != part else CARRIED)
-            gap = float(np.linalg.norm(np.maximum(0.0, np.maximum(bb[0] - ba[1], ba[0] - bb[1]))))
-            if gap >= enough:
-                out.append((gap, key))
-                continue
-            for x in (a, b):
-                if x not in posed:
-                    world.set_pose(x, poses[x])
-                    posed.add(x)
-            out.append((world.distance(a, b), key))
-        return out
 
     def self_pairs_bodies(self) -> list[tuple[str, str]]:
         return [(self.body[a], self.body[b]) for a, b in self.self_pairs]
