@@ -9,6 +9,10 @@ import numpy as np
 from ..knowledge.model import Gripper, Table
 from .pieces import CollisionModel, ConvexPiece
 
+HALF_TURN = np.diag([-1.0, -1.0, 1.0, 1.0])
+"""Half a turn about the gripper's TCP z (approach) axis. :func:`gripper_model` is symmetric
+under it (the two fingers swap), so ``T_world_tcp @ HALF_TURN`` holds a part the same way."""
+
 
 def gripper_model(gripper: Gripper, inner_half_m: float, outer_half_m: float | None = None
                   ) -> CollisionModel:

@@ -70,7 +70,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cache
 from pathlib import Path
 
@@ -80,6 +80,7 @@ import pinocchio as pin
 from ..knowledge.frames import invert
 from ..knowledge.model import Robot
 from ..parts.arm_links import link_models
+from ..parts.cell import HALF_TURN
 from ..parts.pieces import CollisionModel
 from .errors import (
     ArmCollisionError,
@@ -93,6 +94,7 @@ from .timing import min_jerk_duration_s
 from .trajectory import PhaseSpan, Trajectory
 
 ARM_PREFIX = "arm:"
+TURN = HALF_TURN  # a parallel gripper's other way of holding the same grasp
 CARRIED = "@carried"
 _ENOUGH_M = 0.02  # exact distances only between bodies whose boxes come closer than this
 _STRIDE = 16  # the cross-leg travel bound: every 16th sample first, then the ones between
@@ -761,11 +763,27 @@ class ArmPlanner:
         """IK along the step's whole trajectory on the best branch that works, every state
         checked for collisions, then the trajectory retimed within the joint limits.
 
+        A parallel gripper is the same turned half a turn about its approach axis (its two
+        fingers are alike, :func:`asmplan.parts.cell.gripper_model`): every branch is also
+        tried with the tool turned (the TCP frames times :data:`TURN`), which holds the part
+        the same way and takes the same path; the arm's links and joint 6 see it
+        differently. After a previous step the candidates are tried nearest the arm's last
+        state first (the turn saves up to half a wrist turn between steps), else by
+        manipulability and limit margin.
+
         Where no branch can follow the planned (Cartesian) transfer from the lifted to the
         pre-insertion pose, the transfer is planned in joint space with OMPL on each branch
         (``ompl``: planner, time budget s, seed), the straight segments staying Cartesian;
         the TCP then follows FK of the joint path, at most ``max_tcp_speed_m_s`` fast
         (``tool_radius_m`` bounds the gripper and part about the TCP).
+
+        Returns
+        -------
+        trajectory : Trajectory
+            Retimed (and turned, when so planned).
+        motion : ArmMotion
+            ``tool_turned`` when the tool is turned half a turn about its approach axis: the
+            grasp's TCP frame is then ``T_part_gripper @ TURN`` (the part's path is unchanged).
 
         Raises
         ------
@@ -773,42 +791,38 @@ class ArmPlanner:
             The first key pose out of reach or beyond a joint limit; else, when every branch
             fails along the path, the failure of the branch nearest the arm's last state.
         """
-        T = traj.T_world_gripper
         phase_idx = traj.phase_indices_at(traj.t_s)
         names = [p.name for p in traj.phases]
-        self.check_pose(index, part, "pre-grasp pose", T[0])
-        sols, _ = self.arm.ik_all(T[0])
-        ref = self.last_q
-        if ref is not None:
-            sols = sorted(sols, key=lambda s: float(np.abs(self._near(s.q_rad, ref) - ref).sum()))
-        else:
-            sols = sorted(sols, key=lambda s: (-min(s.manipulability / self.arm.best_manipulability,
-                                                    0.2) - s.limit_margin_rad * 0.01))
+        variants = {False: (traj, T_tcp_part), True: (_turned(traj), TURN @ T_tcp_part)}
+        self.check_pose_either(index, part, "pre-grasp pose", traj.T_world_gripper[0])
+        cands = self._candidates(traj.T_world_gripper[0])
+        n_branches = sum(1 for _, turned in cands if not turned)
         failures: list = []
-        for sol in sols:
-            q0 = sol.q_rad if ref is None else self._near(sol.q_rad, ref)
+        for sol, turned in cands:
+            tr, T_tp = variants[turned]
+            T = tr.T_world_gripper
             try:
-                Q, stats = self._track_wrapped(index, part, T, phase_idx, names, q0)
-                checked = self._check_path(index, part, Q, phase_idx, names, T_tcp_part,
+                Q, stats = self._track_wrapped(index, part, T, phase_idx, names, sol.q_rad)
+                checked = self._check_path(index, part, Q, phase_idx, names, T_tp,
                                            obstacles, T_start, T_final, tool_radius_m)
                 transfer = self._transfer(index, part, Q[0], obstacles, T_start, T_final,
                                           tool_radius_m, ompl)
             except (ArmPathError, ArmCollisionError, JointLimitError) as exc:
                 failures.append(exc)
                 continue
-            return self._finish(traj, Q, stats, sol, names, checked, len(sols), False,
-                                transfer)
+            return self._finish(tr, Q, stats, sol, names, checked, n_branches, False,
+                                transfer, turned)
         translate_failed = [f for f in failures if f.phase == "translate"]
         if translate_failed and "translate" in names:
-            for sol in sols:
-                q0 = sol.q_rad if ref is None else self._near(sol.q_rad, ref)
+            for sol, turned in cands:
+                tr, T_tp = variants[turned]
                 try:
                     new, Q, stats = self._joint_translate(
-                        index, part, traj, q0, sol.branch, T_tcp_part, obstacles, T_final,
+                        index, part, tr, sol.q_rad, sol.branch, T_tp, obstacles, T_final,
                         tool_radius_m, max_tcp_speed_m_s, ompl)
                     names2 = [p.name for p in new.phases]
                     idx2 = new.phase_indices_at(new.t_s)
-                    checked = self._check_path(index, part, Q, idx2, names2, T_tcp_part,
+                    checked = self._check_path(index, part, Q, idx2, names2, T_tp,
                                                obstacles, T_start, T_final,
                                                tool_radius_m,
                                                tool_env_phases=("translate",))
@@ -817,14 +831,57 @@ class ArmPlanner:
                 except (ArmPathError, ArmCollisionError, JointLimitError) as exc:
                     failures.append(exc)
                     continue
-                return self._finish(new, Q, stats, sol, names2, checked, len(sols), True,
-                                    transfer)
+                return self._finish(new, Q, stats, sol, names2, checked, n_branches, True,
+                                    transfer, turned)
         raise failures[0]
+
+    def check_pose_either(self, index: int, part: str, what: str, T_world_tcp: np.ndarray
+                          ) -> None:
+        """:meth:`check_pose` of the pose or of the tool turned half a turn about its
+        approach axis (the same grasp); raises the first pose's failure when both fail."""
+        try:
+            self.check_pose(index, part, what, T_world_tcp)
+        except (OutOfReachError, JointLimitError, ArmPathError):
+            try:
+                self.check_pose(index, part, what, T_world_tcp @ TURN)
+            except (OutOfReachError, JointLimitError, ArmPathError):
+                pass
+            else:
+                return
+            raise
+
+    def _candidates(self, T_world_tcp: np.ndarray) -> list[tuple[IkSolution, bool]]:
+        """The start configurations to try at the step's first pose, best first: every IK
+        branch (moved by whole turns nearest the arm's last state), each also with the tool
+        turned (solved from the branch's solution with joint 6 half a turn on)."""
+        arm = self.arm
+        sols, _ = arm.ik_all(T_world_tcp)
+        ref = self.last_q
+        T_turned = T_world_tcp @ TURN
+        target = arm._target(T_turned)
+        out: list[tuple[IkSolution, bool]] = []
+        for sol in sols:
+            q0 = sol.q_rad if ref is None else self._near(sol.q_rad, ref)
+            out.append((replace(sol, q_rad=q0), False))
+            seed = q0.copy()
+            seed[5] += math.pi
+            qt, ok = arm._solve(target, seed, 30)
+            qi = arm._in_limits(qt) if ok else None
+            if qi is None:
+                continue
+            qi = qi if ref is None else self._near(qi, ref)
+            m, j = arm.limit_margin(qi)
+            out.append((IkSolution(qi, arm.branch_label(qi, T_turned), arm.manipulability(qi),
+                                   m, arm.joint_names[j]), True))
+        if ref is not None:
+            return sorted(out, key=lambda c: float(np.abs(c[0].q_rad - ref).sum()))
+        return sorted(out, key=lambda c: (-min(c[0].manipulability / arm.best_manipulability,
+                                               0.2) - c[0].limit_margin_rad * 0.01, c[1]))
 
     def _finish(self, traj: Trajectory, Q: np.ndarray, stats: tuple[float, float, str, float],
                 sol: IkSolution, names: list[str], checked: int, n_branches: int,
-                joint_space: bool, transfer: tuple[np.ndarray, float, int]
-                ) -> tuple[Trajectory, ArmMotion]:
+                joint_space: bool, transfer: tuple[np.ndarray, float, int],
+                turned: bool = False) -> tuple[Trajectory, ArmMotion]:
         new_traj, scales = retime(traj, Q, self.arm.vmax, self.arm.amax)
         self.last_q = Q[-1].copy()
         motion = ArmMotion(
@@ -834,7 +891,7 @@ class ArmPlanner:
             phase_time_scale=tuple((n, float(s)) for n, s in zip(names, scales, strict=True)),
             transfer_s=transfer[1], checked_states=checked + transfer[2],
             branches_found=n_branches, joint_space_translate=joint_space,
-            transfer_q_rad=transfer[0])
+            transfer_q_rad=transfer[0], tool_turned=turned)
         return new_traj, motion
 
     def _transfer(self, index: int, part: str, q_goal: np.ndarray, obstacles: Sequence[str],
@@ -1408,6 +1465,12 @@ def joint_move_s(q0: np.ndarray, q1: np.ndarray, vmax: np.ndarray, amax: np.ndar
     at its limits)."""
     return max(min_jerk_duration_s(abs(float(d)), float(v), float(a))
                for d, v, a in zip(np.asarray(q1) - np.asarray(q0), vmax, amax, strict=True))
+
+
+def _turned(traj: Trajectory) -> Trajectory:
+    """``traj`` with the tool turned half a turn about its approach axis (:data:`TURN`)."""
+    return Trajectory(t_s=traj.t_s, T_world_gripper=traj.T_world_gripper @ TURN,
+                      clamp_force_N=traj.clamp_force_N, phases=traj.phases)
 
 
 # ---------------------------------------------------------------------------------------------

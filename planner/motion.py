@@ -49,6 +49,7 @@ import numpy as np
 
 from ..knowledge.frames import invert
 from ..knowledge.model import Product
+from ..parts.cell import HALF_TURN as TURN
 from .certify import PathCheck, carried_radius, certify_path
 from .errors import (
     ArmError,
@@ -412,7 +413,7 @@ class MotionPlanner:
             try:
                 for what, G in (("pick pose", G_grasp), ("lifted pose", G_lift),
                                 ("pre-insertion pose", G_pre), ("seated pose", G_final)):
-                    self.arm.check_pose(index, part, what, G)
+                    self.arm.check_pose_either(index, part, what, G)
             except ArmError as exc:
                 raise _GraspFailed(str(exc), exc) from None
 
@@ -517,6 +518,9 @@ class MotionPlanner:
                     (settings.planner, settings.time_budget_s, settings.seed + 101 * grasp_rank))
             except ArmError as exc:
                 raise _GraspFailed(str(exc), exc) from None
+            if arm_motion.tool_turned:  # the same grasp, the gripper turned half a turn
+                g = replace(g, T_part_gripper=g.T_part_gripper @ TURN)
+                path = path @ TURN
             if arm_motion.joint_space_translate:  # the TCP follows the arm's joint path
                 sel = traj.phase_indices_at(traj.t_s) == [p.name for p in traj.phases].index(
                     "translate")

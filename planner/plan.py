@@ -121,6 +121,10 @@ class ArmMotion:
         True when the arm could not follow the planned Cartesian transfer (lifted to
         pre-insertion pose) and OMPL planned it in joint space; the trajectory's translate
         phase is then FK of that joint path.
+    tool_turned : bool
+        True when the arm holds the grasp with the gripper turned half a turn about its
+        approach axis (the two fingers swapped; the step's grasp and trajectory are given
+        turned), which the arm reached nearer its last state.
     """
 
     joint_names: tuple[str, ...]
@@ -136,6 +140,7 @@ class ArmMotion:
     branches_found: int
     joint_space_translate: bool = False
     transfer_q_rad: np.ndarray | None = None
+    tool_turned: bool = False
 
     def __post_init__(self) -> None:
         q = np.array(self.q_rad, dtype=float)
@@ -159,6 +164,7 @@ class ArmMotion:
                 "transfer_s": float(self.transfer_s), "checked_states": int(self.checked_states),
                 "branches_found": int(self.branches_found),
                 "joint_space_translate": bool(self.joint_space_translate),
+                "tool_turned": bool(self.tool_turned),
                 "transfer_q_rad": np.asarray(self.transfer_q_rad).round(9).tolist()}
 
     @classmethod
@@ -172,7 +178,8 @@ class ArmMotion:
                    transfer_s=float(d["transfer_s"]), checked_states=int(d["checked_states"]),
                    branches_found=int(d["branches_found"]),
                    joint_space_translate=bool(d.get("joint_space_translate", False)),
-                   transfer_q_rad=np.array(d.get("transfer_q_rad", []), dtype=float))
+                   transfer_q_rad=np.array(d.get("transfer_q_rad", []), dtype=float),
+                   tool_turned=bool(d.get("tool_turned", False)))
 
 
 @dataclass(frozen=True)

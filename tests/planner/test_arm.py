@@ -239,3 +239,34 @@ def test_transfer_the_arm_cannot_follow_is_planned_in_joint_space() -> None:
     vel, acc = joint_rates(traj.t_s, a.q_rad)
     assert np.all(np.abs(vel) <= arm.vmax * (1 + 1e-6))
     assert np.all(np.abs(acc) <= arm.amax * (1 + 1e-6))
+
+
+def test_the_gripper_is_turned_half_a_turn_where_that_spares_the_wrist() -> None:
+    """pinhole_station: after part2, part3's grasp as the grasp planner gives it needs joint 6
+    about half a turn from where the arm stands; the parallel gripper holds the part the same
+    way turned half a turn about its approach axis, and the arm takes that."""
+    from asmplan.parts.cell import HALF_TURN
+
+    product = load_product(EXAMPLES / "pinhole_station.yaml")
+    plan = plan_product(product).plan
+    arm = ArmModel(product.resources.robot, ArmSettings())
+    moved = [s for s in plan.steps if s.kind != "fixture"]
+    turned = [(prev, s) for prev, s in itertools.pairwise(moved) if s.arm.tool_turned]
+    assert turned, [s.part for s in moved]
+    for prev, s in turned:
+        q_last = prev.arm.q_rad[-1]
+        q_first = s.arm.q_rad[0]
+        # the joint-6 move between the steps is short ...
+        assert abs(q_first[5] - q_last[5]) < math.pi / 2
+        # ... and the grasp as planned (turned back) would need about half a turn more
+        T_back = s.trajectory.T_world_gripper[0] @ HALF_TURN
+        q_back, ok = arm.solve(T_back, q_first + np.array([0, 0, 0, 0, 0, math.pi]))
+        assert ok
+        assert abs(q_back[5] - q_last[5]) > abs(q_first[5] - q_last[5]) + math.pi / 2
+        # the grasp is given turned with the trajectory: the part is seated where it belongs
+        traj = s.trajectory
+        idx = traj.phase_indices_at(traj.t_s)
+        k = int(np.flatnonzero(idx == [p.name for p in traj.phases].index("lower"))[-1])
+        T_part = traj.T_world_gripper[k] @ np.linalg.inv(s.grasp.T_part_gripper)
+        assert np.abs(T_part[:3, :3] - s.T_world_final[:3, :3]).max() < 1e-9
+        assert np.linalg.norm(T_part[:3, 3] - s.T_world_final[:3, 3]) < 1e-6
