@@ -34,8 +34,8 @@ The links' collision models (:mod:`asmplan.parts.arm_links`) join the planner's 
 bodies ``arm:<link>``. Every state of the step's joint path (the IK solutions at the
 trajectory's samples, linear in joint space between them) is checked against the table, every
 part at its current pose (the moving part at its start pose until the clamp, at its seated
-pose from the release on), the gripper and the carried part (links more than two joints from
-the flange) and the other links (pairs that are not neighbours and not in contact at every
+pose from the release on), the mounted gripper and the carried part (every link, the two
+wrist links included) and the other links (pairs that are not neighbours and not in contact at every
 one of 200 seeded configurations, the usual "allowed collision" rule). The check is
 conservative advancement in joint space (:meth:`ArmPlanner._advance`): at a state whose bodies
 are ``d`` apart, the next state checked is where a bound of the travel of any point of the
@@ -615,10 +615,12 @@ class ArmPlanner:
             scene.add_body(self.body[ln], self.models[ln], far)
         # index of each link along the chain (0 = root); links[k] moves with joints < k
         self.chain_index = {ln: urdf.links.index(ln) for ln in self.links}
-        # the tool and the carried part are checked against the base and every link more
-        # than two joints from the flange (the wrist links hold the tool)
-        self.tool_links = [ln for ln in self.links
-                           if self.chain_index[ln] <= len(urdf.links) - 3]
+        # the tool (the mounted gripper) and the carried part are checked against every link,
+        # the two wrist links included: a gripper mounted into the flange or the wrist, or a
+        # part held so that it reaches back into them, collides there. (The wrist links are
+        # rigid with the tool or turn it about its own axis only, so those clearances hardly
+        # change along a path: each is measured once per stretch or as its bound runs out.)
+        self.tool_links = list(self.links)
         self.self_pairs = self._self_pairs(urdf.links)
         self._bounds = self._reach_bounds()
         self._link_sphere = self._link_spheres()

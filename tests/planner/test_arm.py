@@ -270,3 +270,22 @@ def test_the_gripper_is_turned_half_a_turn_where_that_spares_the_wrist() -> None
         T_part = traj.T_world_gripper[k] @ np.linalg.inv(s.grasp.T_part_gripper)
         assert np.abs(T_part[:3, :3] - s.T_world_final[:3, :3]).max() < 1e-9
         assert np.linalg.norm(T_part[:3, 3] - s.T_world_final[:3, 3]) < 1e-6
+
+
+def test_a_gripper_mounted_into_the_wrist_fails_naming_the_pair() -> None:
+    """The wrist links are checked against the mounted gripper: peg_in_hole's gripper (palm
+    30 mm deep behind 30 mm fingers) mounted 40 mm from the flange instead of 60 mm has its
+    palm 5.4 mm inside the flange link, whatever the wrist does; planning fails naming the
+    flange and the gripper (before, only links up to wrist 1 were checked against it)."""
+    product = load_product(EXAMPLES / "peg_in_hole.yaml")
+    robot = product.resources.robot
+    T = np.array(robot.T_flange_tcp, float)
+    T[2, 3] = 0.040
+    short = dataclasses.replace(product, resources=dataclasses.replace(
+        product.resources, robot=dataclasses.replace(robot, T_flange_tcp=T)))
+    g = short.resources.gripper
+    # palm back face: TCP - finger length / 2 - palm depth, here 5 mm behind the flange face
+    assert 0.040 - g.finger_size_m[2] / 2 - g.palm_size_m[2] < 0
+    with pytest.raises(ArmCollisionError, match=r"flange \(arm:link6\) hits gripper") as info:
+        plan_product(short)
+    assert any(p.a == "arm:link6" and p.b.startswith("gripper") for p in info.value.pairs)
