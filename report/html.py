@@ -192,11 +192,17 @@ def _process_sheet(inp: ReportInputs, step: Any) -> dict[str, Any]:
     if traj is not None:
         t = np.asarray(traj.t_s)
         f = np.asarray(traj.clamp_force_N)
+        # with an arm, the step's cycle starts with its joint move from the previous step's
+        # last state: the phases then add up to the step's cycle time (the plan's)
+        lead = 0.0 if step.arm is None else float(step.arm.transfer_s)
+        if lead > 0:
+            phases.append({"name": "arm transfer (joint move from the previous step)",
+                           "start": "0.00", "duration": f"{lead:.2f}", "force": "–"})
         for ph in traj.phases:
             mask = (t >= ph.t_start_s) & (t <= ph.t_end_s)
             force = f[mask]
             f0, f1 = (float(force[0]), float(force[-1])) if force.size else (math.nan, math.nan)
-            phases.append({"name": ph.name, "start": f"{ph.t_start_s - t[0]:.2f}",
+            phases.append({"name": ph.name, "start": f"{lead + ph.t_start_s - t[0]:.2f}",
                            "duration": f"{ph.t_end_s - ph.t_start_s:.2f}",
                            "force": ("–" if not force.size else f"{f0:.2f}" if abs(f1 - f0) < 1e-9
                                      else f"{f0:.2f} → {f1:.2f}")})

@@ -135,3 +135,32 @@ def test_a_failed_step_picture_says_what_it_shows(tmp_path) -> None:
     assert f"FAILED, this is where peg ended: {reason}" in html
     assert f"simulated step (animated; FAILED: {reason})" in html
     assert "step(s) 2 fail" in html
+
+
+def test_one_cycle_time_in_plan_summary_and_report(seed_run, tmp_path) -> None:
+    """With the arm, the cycle time is the arm's (joint-limited trajectory plus the joint move
+    from the previous step) everywhere: the plan, summary.json, the report's step table and
+    total, the arm's table, and each process sheet, whose phases add up to the step's cycle."""
+    import json
+
+    folder = write_outputs(seed_run, tmp_path / "out")
+    html = (folder / "report.html").read_text()
+    summary = json.loads((folder / "summary.json").read_text())
+    plan = seed_run.plan
+    assert plan.steps[-1].arm is not None and plan.steps[-1].arm.transfer_s > 0
+    assert summary["cycle_time_s"] == pytest.approx(plan.cycle_time_s, abs=1e-9)
+    assert f"<th class=\"num\">{plan.cycle_time_s:.2f}</th>" in html
+    assert f"<b>{plan.cycle_time_s:.2f} s</b>" in html
+    for s in plan.steps:
+        if s.trajectory is None:
+            continue
+        assert summary["step_cycle_times_s"][s.part] == pytest.approx(s.cycle_time_s)
+        n = s.index + 1
+        sheet = html[html.index('<table class="phases">', html.index(f'id="step{n}"')):]
+        sheet = sheet[:sheet.index("</table>")]
+        lasts = [float(d) for _, d in re.findall(r'<td class="num">([0-9.]+)</td>'
+                                                 r'<td class="num">([0-9.]+)</td>', sheet)]
+        n_phases = len(s.trajectory.phases) + (1 if s.arm.transfer_s > 0 else 0)
+        assert len(lasts) == n_phases
+        assert sum(lasts) == pytest.approx(s.cycle_time_s, abs=0.01 * n_phases)
+        assert f'<th class="num">{s.cycle_time_s:.2f}</th>' in sheet
