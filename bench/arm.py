@@ -2,9 +2,10 @@
 kinematics per waypoint and planning time per pick-and-insert step with the arm, against the
 same steps without it.
 
-* IK per waypoint: every distinct TCP pose of every step trajectory of the bundled examples'
-  plans, solved from the previous sample's solution (what planning does along a path), and
-  the all-branches IK (seeded, what each grasp's first pose costs), medians.
+* IK per waypoint: every step trajectory of the bundled examples' plans tracked as planning
+  does (:meth:`ArmModel.track`: each distinct TCP pose from the previous solutions), CPU time
+  per distinct pose (median over the steps), and the all-branches IK (seeded, what each
+  grasp's first pose costs), medians.
 * Plan time per step: ``plan_product`` of each example, ``runs`` times, interleaved with and
   without the arm (the product's ``resources.robot`` removed); medians of the wall-clock and
   CPU time of the pick-and-insert steps (fixture steps excluded).
@@ -89,14 +90,11 @@ def bench_arm(products: Sequence[str] = EXAMPLES, runs: int = 5, log=None) -> li
                 continue
             assert step.trajectory is not None
             T = step.trajectory.T_world_gripper
-            q = step.arm.q_rad[0]
-            for k in range(1, len(T)):
-                if np.array_equal(T[k], T[k - 1]):
-                    continue
-                t0 = time.perf_counter()
-                q, _ = model.solve(T[k], q, 30)
-                track.append(time.perf_counter() - t0)
-                n += 1
+            distinct = 1 + sum(1 for k in range(1, len(T)) if not np.array_equal(T[k], T[k - 1]))
+            t0 = time.process_time()
+            model.track(T, step.arm.q_rad[0])  # what planning does along the step's path
+            track.append((time.process_time() - t0) / distinct)
+            n += distinct
             for k in range(0, len(T), max(1, len(T) // 10)):
                 t0 = time.perf_counter()
                 sols, _ = model.ik_all(T[k])

@@ -1156,9 +1156,9 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
         from .arm import format_arm
 
         out += ["## The arm: inverse kinematics and planning per step", "",
-                "`bench/arm.py` `bench_arm()`: IK of every distinct TCP pose of the "
-                "examples' step trajectories from the previous sample's solution (as planning "
-                "tracks a path) and the seeded all-branch IK (each grasp's first pose); planning "
+                "`bench/arm.py` `bench_arm()`: IK along the examples' step trajectories as "
+                "planning tracks them (`ArmModel.track`, CPU per distinct TCP pose, median over "
+                "the steps) and the seeded all-branch IK (each grasp's first pose); planning "
                 "time per pick-and-insert step with the xArm 6 (IK along the whole trajectory, "
                 "arm collisions, joint-limited timing) and without the arm, 5 interleaved runs, "
                 "medians. Targets: IK <= 1 ms median, plan <= 50 ms per step median on the seed "

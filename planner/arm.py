@@ -769,9 +769,10 @@ class ArmPlanner:
         fingers are alike, :func:`asmplan.parts.cell.gripper_model`): every branch is also
         tried with the tool turned (the TCP frames times :data:`TURN`), which holds the part
         the same way and takes the same path; the arm's links and joint 6 see it
-        differently. After a previous step the candidates are tried nearest the arm's last
-        state first (the turn saves up to half a wrist turn between steps), else by
-        manipulability and limit margin.
+        differently. After a previous step the candidates are tried in the order of the
+        joint move from the arm's last state (its time, then the joints' total travel; the
+        turn saves up to half a wrist turn between steps), else by manipulability and limit
+        margin.
 
         Where no branch can follow the planned (Cartesian) transfer from the lifted to the
         pre-insertion pose, the transfer is planned in joint space with OMPL on each branch
@@ -800,20 +801,39 @@ class ArmPlanner:
         cands = self._candidates(traj.T_world_gripper[0])
         n_branches = sum(1 for _, turned in cands if not turned)
         failures: list = []
-        for sol, turned in cands:
+        def attempt(sol: IkSolution, turned: bool) -> tuple:
             tr, T_tp = variants[turned]
-            T = tr.T_world_gripper
+            Q, stats = self._track_wrapped(index, part, tr.T_world_gripper, phase_idx, names,
+                                           sol.q_rad)
+            checked = self._check_path(index, part, Q, phase_idx, names, T_tp, obstacles,
+                                       T_start, T_final, tool_radius_m)
+            transfer = self._transfer(index, part, Q[0], obstacles, T_start, T_final,
+                                      tool_radius_m, ompl)
+            cycle = retime(tr, Q, self.arm.vmax, self.arm.amax)[0].duration_s + transfer[1]
+            return cycle, (tr, Q, stats, sol, names, checked, n_branches, False, transfer,
+                           turned)
+
+        for i, (sol, turned) in enumerate(cands):
             try:
-                Q, stats = self._track_wrapped(index, part, T, phase_idx, names, sol.q_rad)
-                checked = self._check_path(index, part, Q, phase_idx, names, T_tp,
-                                           obstacles, T_start, T_final, tool_radius_m)
-                transfer = self._transfer(index, part, Q[0], obstacles, T_start, T_final,
-                                          tool_radius_m, ompl)
+                cycle, best = attempt(sol, turned)
             except (ArmPathError, ArmCollisionError, JointLimitError) as exc:
                 failures.append(exc)
                 continue
-            return self._finish(tr, Q, stats, sol, names, checked, n_branches, False,
-                                transfer, turned)
+            # the same branch held the other way, when the move here took longer than that
+            # one's straight joint move would (a detour, or a start a turn away): tried too,
+            # the shorter step kept
+            sib = next(((s2, t2) for s2, t2 in cands[i + 1:]
+                        if t2 != turned and s2.branch == sol.branch), None)
+            if sib is not None and self.last_q is not None and best[8][1] > joint_move_s(
+                    self.last_q, sib[0].q_rad, self.arm.vmax, self.arm.amax) + 1e-9:
+                try:
+                    cycle2, other = attempt(*sib)
+                except (ArmPathError, ArmCollisionError, JointLimitError):
+                    pass
+                else:
+                    if cycle2 < cycle - 1e-9:
+                        best = other
+            return self._finish(*best)
         translate_failed = [f for f in failures if f.phase == "translate"]
         if translate_failed and "translate" in names:
             for sol, turned in cands:
@@ -875,8 +895,10 @@ class ArmPlanner:
             m, j = arm.limit_margin(qi)
             out.append((IkSolution(qi, arm.branch_label(qi, T_turned), arm.manipulability(qi),
                                    m, arm.joint_names[j]), True))
-        if ref is not None:
-            return sorted(out, key=lambda c: float(np.abs(c[0].q_rad - ref).sum()))
+        if ref is not None:  # the shortest joint move from the last state first
+            return sorted(out, key=lambda c: (
+                round(joint_move_s(ref, c[0].q_rad, arm.vmax, arm.amax), 6),
+                float(np.abs(c[0].q_rad - ref).sum())))
         return sorted(out, key=lambda c: (-min(c[0].manipulability / arm.best_manipulability,
                                                0.2) - c[0].limit_margin_rad * 0.01, c[1]))
 
