@@ -624,6 +624,8 @@ def recognise(surfaces: list[Surface], vertices_m: np.ndarray, faces: np.ndarray
     return named, notes
 
 
+# Complexity above C (radon): pairs of opposite plane pairs, each tested in turn (perpendicular,
+# centred, one depth, facing) and classified as a tenon or a mortise with its end, shoulder or floor.
 def _rectangles(planes: list[Surface], vertices_m: np.ndarray, rays: _Rays | None,
                 tol: RecognitionTolerance, size: float) -> list[CadFeature]:
     """Rectangular tenons (male) and mortises (female) from plane patches.

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 import numpy as np
 
@@ -49,7 +50,6 @@ def mujoco_jam_depth_m(dt_s: float, clearance_m: float, tilt_rad: float,
                        friction: float = 0.3) -> tuple[float, float]:
     """(jam depth, m, as :func:`bench.scenarios.whitney_jam_depth_m` defines it; wall
     seconds per simulated second) of the MuJoCo scene at time step ``dt_s``."""
-    import mujoco
 
     d, L, depth, top = peg_diameter_m, 0.030, 0.020, 0.030
     D = d + clearance_m
@@ -76,21 +76,32 @@ def mujoco_jam_depth_m(dt_s: float, clearance_m: float, tilt_rad: float,
     </body>
   </worldbody>
 </mujoco>"""
+    data, wall_per_s = _pushed(xml, (side_N, -push_N), settle_s, dt_s, max_speed_mps)
+    pos = centre + np.array([data.qpos[0], 0.0, data.qpos[1]])
+    trailing = pos - (L / 2.0) * u - (d / 2.0) * e
+    return float((top - trailing[2]) / u[2]), wall_per_s
+
+
+def _pushed(xml: str, force: tuple[float, ...], settle_s: float, dt_s: float,
+            max_speed_mps: float) -> tuple[Any, float]:
+    """Run the model of ``xml`` for ``settle_s`` with ``force`` on its slide joints (one each,
+    in order), the body's speed capped at ``max_speed_mps`` (a robot feeding slowly near
+    contact). Returns (the final ``MjData``, wall seconds per simulated second)."""
+    import mujoco
+
     model = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(model)
+    k = len(force)
     n = round(settle_s / dt_s)
     t0 = time.perf_counter()
     for _ in range(n):
-        data.qfrc_applied[:] = (side_N, -push_N)
+        data.qfrc_applied[:] = force
         mujoco.mj_step(model, data)
-        v = data.qvel[:2].copy()
+        v = data.qvel[:k].copy()
         speed = float(np.linalg.norm(v))
-        if speed > max_speed_mps:  # a robot feeding slowly near contact
-            data.qvel[:2] = v * (max_speed_mps / speed)
-    wall = time.perf_counter() - t0
-    pos = centre + np.array([data.qpos[0], 0.0, data.qpos[1]])
-    trailing = pos - (L / 2.0) * u - (d / 2.0) * e
-    return float((top - trailing[2]) / u[2]), wall / settle_s
+        if speed > max_speed_mps:
+            data.qvel[:k] = v * (max_speed_mps / speed)
+    return data, (time.perf_counter() - t0) / settle_s
 
 
 # --------------------------------------------------------------------------------------------
@@ -213,7 +224,6 @@ def mujoco_capture_entered_m(dt_s: float, radial_clearance_m: float, offset_m: f
     flat face, its bottom 0.5 mm above the mouth, pushed down with ``push_N`` at most
     ``max_speed_mps`` fast into an unchamfered ``sides``-gon blind hole (inscribed radius
     ``hole_radius_m``). Analytic: it is captured only if ``|offset| < radial clearance``."""
-    import mujoco
 
     r = hole_radius_m - radial_clearance_m
     L, top = 0.040, 0.030
@@ -230,20 +240,9 @@ def mujoco_capture_entered_m(dt_s: float, radial_clearance_m: float, offset_m: f
     </body>
   </worldbody>
 </mujoco>"""
-    model = mujoco.MjModel.from_xml_string(xml)
-    data = mujoco.MjData(model)
-    n = round(settle_s / dt_s)
-    t0 = time.perf_counter()
-    for _ in range(n):
-        data.qfrc_applied[:] = (0.0, 0.0, -push_N)
-        mujoco.mj_step(model, data)
-        v = data.qvel[:3].copy()
-        speed = float(np.linalg.norm(v))
-        if speed > max_speed_mps:
-            data.qvel[:3] = v * (max_speed_mps / speed)
-    wall = time.perf_counter() - t0
+    data, wall_per_s = _pushed(xml, (0.0, 0.0, -push_N), settle_s, dt_s, max_speed_mps)
     bottom = z0 + float(data.qpos[2]) - L / 2.0
-    return top - bottom, wall / settle_s
+    return top - bottom, wall_per_s
 
 
 # --------------------------------------------------------------------------------------------
