@@ -1372,7 +1372,7 @@ class ArmPlanner:
             G[:, g] = (mm * np.where(ii > jj, R[ii], 0.0)).ravel()
             H[:, g] = (mm * (np.where(ii < jj, 2.0 * R[jj], 0.0)
                              + np.where(ii >= jj, R[ii], 0.0))).ravel()
-        return _Groups(np.array(of, int), bodies, mask, mask.any(axis=1), G, H, unique,
+        return _Groups(np.array(of, int), bodies, mask, np.asarray(mask.any(axis=1), bool), G, H, unique,
                        np.array([unique.index(x) for x in bodies], int))
 
     def _depth(self, body: str) -> int:
