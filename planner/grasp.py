@@ -22,8 +22,9 @@ For each candidate the pads are the finger boxes' inner faces, ``width x length`
 the contact: the outermost points along the closing axis touch the pads; those within
 ``CONTACT_BAND_M`` of the extreme count as contact area, and their normals must lie inside the
 friction cone (``mu = finger friction * part friction``) of the closing direction. Rejected:
-no contact on one side, a normal outside the cone, a width beyond the stroke (minus the
-opening clearance on both sides), any surface point inside the palm box.
+no contact on one side, a normal outside the cone, a contact area below
+``MIN_CONTACT_FRACTION`` of the pad's, a width beyond the stroke (minus the opening clearance
+on both sides), any surface point inside the palm box.
 
 Ranking
 -------
@@ -59,6 +60,10 @@ CONTACT_BAND_M = 3e-4
 _MIN_CONTACT_POINTS = 3
 _MAX_OFFSETS = 41  # pad centres per axis and candidate frame (the whole part, every depth)
 G_M_S2 = 9.81
+MIN_CONTACT_FRACTION = 0.02
+"""Smallest contact area of a pad, as a share of the pad's area: a pad that touches the part
+only along an edge (a 45 deg pinch of a sleeve's rim, 3 mm^2 of a 600 mm^2 pad) cannot hold
+the moment of an insertion; a pad on a cylinder's flank a few mm deep touches 20-30 mm^2."""
 _EDGE_INSET_M = 1e-3  # a finger sticking out on one side keeps its other edge this far in
 _STOP_GAP_M = 2.5e-4  # fingertips stopped this far short of the lead limit
 _ANGLE_STEP_RAD = math.pi / 4
@@ -81,6 +86,10 @@ class GraspSurface:
     kind : str
         Geometry kind ("box", "cylinder", "composite", "mesh", ...); cylinders add radial
         closing axes about their local z axis.
+    n_area : int, optional
+        The first ``n_area`` points are area samples (face normals); the rest are mesh
+        vertices, whose averaged normals on edges say nothing about the faces a pad touches
+        (the friction-cone test uses the area samples where a pad has enough of them).
     """
 
     points_m: np.ndarray
@@ -88,6 +97,7 @@ class GraspSurface:
     area_per_point_m2: float
     com_m: np.ndarray
     kind: str = "mesh"
+    n_area: int | None = None
     axes_cache: dict[float, list[np.ndarray]] = field(default_factory=dict, repr=False)
 
     @classmethod
@@ -107,7 +117,7 @@ class GraspSurface:
         normals = np.vstack([normals, vn])
         return cls(points_m=np.asarray(pts, float), normals=np.asarray(normals, float),
                    area_per_point_m2=float(mesh.area) / float(n_samples),
-                   com_m=np.asarray(com_m, float), kind=kind)
+                   com_m=np.asarray(com_m, float), kind=kind, n_area=int(n_samples))
 
 
 @dataclass(frozen=True)
@@ -395,7 +405,7 @@ def iter_grasps(
         x, c, a, XYZ, _ = frames[fi]
         if (fi, u) not in strips:
             if fi not in sorted_frames:
-                sorted_frames[fi] = _Frame(XYZ, N)
+                sorted_frames[fi] = _Frame(XYZ, N, surface.n_area)
             f = sorted_frames[fi]
             strips[fi, u] = (_Strip(f, u, W / 2), _Strip(f, u, palm[0] / 2))
         pad, palm_strip = strips[fi, u]
@@ -403,6 +413,8 @@ def iter_grasps(
                       float(gripper.stroke_m), finger_clearance_m, surface.area_per_point_m2,
                       hint)
         if g is None:
+            continue
+        if g[3] < MIN_CONTACT_FRACTION * pad_area:
             continue
         cost = known + 0.5 * (1.0 - min(1.0, g[3] / pad_area))
         heapq.heappush(heap, (cost, serial, g, is_hint))
@@ -429,13 +441,14 @@ def grasp_candidates(part: str, surface: GraspSurface, gripper: Gripper,
 class _Strip:
     """Surface points of one candidate frame within a band of gripper x, sorted by z."""
 
-    __slots__ = ("N", "Y", "Z")
+    __slots__ = ("N", "S", "Y", "Z")
 
     def __init__(self, frame: _Frame, u: float, half_width: float) -> None:
         keep = np.abs(frame.X - u) <= half_width
         self.Z = frame.Z[keep]
         self.Y = frame.Y[keep]
         self.N = frame.N[keep]
+        self.S = frame.S[keep]
 
     def window(self, z_lo: float, z_hi: float) -> slice:
         return slice(int(np.searchsorted(self.Z, z_lo, side="left")),
@@ -445,12 +458,14 @@ class _Strip:
 class _Frame:
     """Surface points projected on one candidate gripper frame, sorted by z (approach)."""
 
-    __slots__ = ("N", "X", "Y", "Z")
+    __slots__ = ("N", "S", "X", "Y", "Z")
 
-    def __init__(self, XYZ: np.ndarray, N: np.ndarray) -> None:
+    def __init__(self, XYZ: np.ndarray, N: np.ndarray, n_area: int | None = None) -> None:
         order = np.argsort(XYZ[2], kind="stable")
         self.X, self.Y, self.Z = XYZ[0, order], XYZ[1, order], XYZ[2, order]
         self.N = N[order]
+        # area samples (True) apart from mesh vertices (False); all area samples if unknown
+        self.S = (order < n_area) if n_area is not None else np.ones(order.size, bool)
 
 
 def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
@@ -471,8 +486,12 @@ def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
     bot = yin <= y_min + CONTACT_BAND_M
     if top.sum() < _MIN_CONTACT_POINTS or bot.sum() < _MIN_CONTACT_POINTS:
         return None
-    # the contact normals must lie inside the friction cone about the closing direction
-    n_in = pad.N[w]
+    # the contact normals must lie inside the friction cone about the closing direction;
+    # judged on the area samples where a pad has enough of them (a vertex on an edge carries
+    # the average of its faces' normals: 45 deg on the rim of a cylinder a pad just overlaps)
+    n_in, s_in = pad.N[w], pad.S[w]
+    if (top & s_in).sum() >= _MIN_CONTACT_POINTS and (bot & s_in).sum() >= _MIN_CONTACT_POINTS:
+        top, bot = top & s_in, bot & s_in
     top_ok = (n_in[top] @ c) >= cos_cone
     bot_ok = (n_in[bot] @ -c) >= cos_cone
     if top_ok.mean() < 0.5 or bot_ok.mean() < 0.5:
