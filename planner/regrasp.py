@@ -15,7 +15,7 @@ directions straight down, turned as little as possible from the assembled one. A
 that puts down the same side as the start pose is skipped (it cannot free a grasp that the
 table blocked there). An orientation is kept only if it is stable: the centre of mass lies
 inside the support polygon (the hull of the points within ``SUPPORT_BAND_M`` of the lowest
-one) by at least ``STABILITY_MARGIN_FRACTION`` of the part's smaller footprint size.
+one) far enough that the part tips only beyond ``MIN_TIP_ANGLE_RAD``.
 
 Positions
 ---------
@@ -35,11 +35,12 @@ import numpy as np
 
 from ..knowledge.frames import rotation_between
 
-SUPPORT_BAND_M = 3e-4
+SUPPORT_BAND_M = 5e-5
 """Points this close to a part's lowest point carry it on the table, m."""
-STABILITY_MARGIN_FRACTION = 0.1
-"""The centre of mass must lie this share of the footprint's smaller size inside the support
-polygon."""
+MIN_TIP_ANGLE_RAD = math.radians(10.0)
+"""A part put down must be tilted at least this much before it tips over its support
+polygon's nearest edge (``atan(margin / height of the centre of mass)``): a disc on its rim or
+a cylinder on the line of its flank is not put down."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,6 +68,10 @@ class RegraspPose:
                 f"(centre of mass {self.stability_margin_m * 1e3:.1f} mm inside its footing)")
 
 
+def _cross2(a: np.ndarray, b: np.ndarray) -> float:
+    return float(a[0] * b[1] - a[1] * b[0])
+
+
 def _hull_2d(pts: np.ndarray) -> np.ndarray:
     """Convex hull (counter-clockwise, (k, 2)) of 2-D points (Andrew's monotone chain)."""
     p = np.unique(np.round(pts, 9), axis=0)
@@ -77,7 +82,7 @@ def _hull_2d(pts: np.ndarray) -> np.ndarray:
     def half(points: np.ndarray) -> list[np.ndarray]:
         out: list[np.ndarray] = []
         for q in points:
-            while len(out) >= 2 and float(np.cross(out[-1] - out[-2], q - out[-2])) <= 0:
+            while len(out) >= 2 and _cross2(out[-1] - out[-2], q - out[-2]) <= 0:
                 out.pop()
             out.append(q)
         return out
@@ -97,7 +102,7 @@ def _inside_margin(hull: np.ndarray, q: np.ndarray) -> float:
         n = float(np.linalg.norm(e))
         if n == 0:
             continue
-        d = min(d, float(np.cross(e, q - a)) / n)
+        d = min(d, _cross2(e, q - a) / n)
     return d
 
 
@@ -137,8 +142,8 @@ def stable_orientations(points_part: np.ndarray, com_part: np.ndarray, R_assembl
         hull = _hull_2d(foot)
         c = (R @ com_part)[:2]
         margin = _inside_margin(hull, c)
-        ext = w[:, :2].max(axis=0) - w[:, :2].min(axis=0)
-        if margin < STABILITY_MARGIN_FRACTION * float(ext.min()):
+        height = float((R @ com_part)[2]) - z0
+        if margin <= 0 or math.atan2(margin, height) < MIN_TIP_ANGLE_RAD:
             continue
         out.append((R, d_part, margin))
     return out
