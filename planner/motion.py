@@ -333,8 +333,7 @@ class MotionPlanner:
                     index, part, g, spec, clamp, T_start, T_pre, T_final, obstacles,
                     len(failures), sampled)
                 if regrasp_to is not None:
-                    step = replace(step, kind="regrasp", notes=(
-                        *step.notes, "regrasp: put down on the table to be grasped again"))
+                    step = replace(step, kind="regrasp")
                 elif start_note is not None:
                     step = replace(step, start_note=start_note)
             except _GraspFailed as f:
