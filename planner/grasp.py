@@ -14,7 +14,8 @@ composites with holes, imported meshes):
    start pose (and the hint's ``approach_axis``);
 3. offsets of the pad centre along the approach axis (steps of a sixth of the finger length)
    and along the finger width (half-finger steps on parts wider than a finger; centred or
-   sticking out on one side only, its other edge 1 mm inside the part, on narrower ones),
+   sticking out on one side only, its other edge 1 mm inside the part, or covering only one
+   end of the part in steps of an eighth of a finger width or 1 mm, on narrower ones),
    centred on the centre of mass.
 
 For each candidate the pads are the finger boxes' inner faces, ``width x length`` rectangles
@@ -64,6 +65,7 @@ MIN_CONTACT_FRACTION = 0.02
 """Smallest contact area of a pad, as a share of the pad's area: a pad that touches the part
 only along an edge (a 45 deg pinch of a sleeve's rim, 3 mm^2 of a 600 mm^2 pad) cannot hold
 the moment of an insertion; a pad on a cylinder's flank a few mm deep touches 20-30 mm^2."""
+_END_STEP_M = 1e-3  # finest step of a finger covering only an end of a narrow part
 _EDGE_INSET_M = 1e-3  # a finger sticking out on one side keeps its other edge this far in
 _STOP_GAP_M = 2.5e-4  # fingertips stopped this far short of the lead limit
 _ANGLE_STEP_RAD = math.pi / 4
@@ -276,8 +278,10 @@ def iter_grasps(
     down_start_part, down_final_part : (3,) float arrays, optional
         World "down" (-z) expressed in the part frame at the start and final poses.
     min_overlap_m : float, optional
-        Smallest overlap of a pad with the part along the approach axis, m; default 3 mm, or
-        a quarter of the pad length for pads shorter than 12 mm (a short pad on a 3 mm head).
+        Smallest overlap of a pad with the part along the approach axis, m; default 2 mm (a
+        3 mm flange in front of a wall, the fingertips kept clear of the wall), or a quarter
+        of the pad length for pads shorter than 8 mm (a short pad on a 3 mm head). The
+        contact area floor (``MIN_CONTACT_FRACTION``) rejects what is too small to hold.
     insertion_part, lead_limit_m : (3,) float array and float, optional
         The insertion direction in the part frame and how far along it (from the centre of
         mass, m) the fingers may reach: grasps whose fingertips would lead the part into its
@@ -294,7 +298,7 @@ def iter_grasps(
     """
     W, T_f, L = (float(v) for v in gripper.finger_size_m)
     if min_overlap_m is None:
-        min_overlap_m = min(3e-3, L / 4)
+        min_overlap_m = min(2e-3, L / 4)
     palm = np.asarray(gripper.palm_size_m, float)
     mu = float(gripper.finger_friction) * float(part_friction)
     cos_cone = math.cos(math.atan(mu)) if mu > 0 else 1.0
@@ -363,9 +367,15 @@ def iter_grasps(
                              for k in _steps(xlo + W / 2, xhi - W / 2, W / 2)}
                             | {round(xlo - W / 4, 9), round(xhi + W / 4, 9)},
                             key=lambda u: (abs(u), u))
-            else:  # narrower: centred, or sticking out on one side only (an edge 1 mm in)
+            else:  # narrower: centred, or sticking out on one side only (an edge 1 mm in),
+                # or covering only an end of it, in steps of an eighth of a finger or 1 mm
+                # (a bearing's 3 mm flange outside the wall it is pressed into)
+                e_step = min(W / 8, _END_STEP_M)
+                ends = {round(e, 9) for k in range(1, int((xhi - xlo) / e_step) + 1)
+                        for e in (xhi - k * e_step + W / 2, xlo + k * e_step - W / 2)}
                 us = sorted({0.0, round(xlo + _EDGE_INSET_M + W / 2, 9),
-                             round(xhi - _EDGE_INSET_M - W / 2, 9)}, key=lambda u: (abs(u), u))
+                             round(xhi - _EDGE_INSET_M - W / 2, 9)} | ends,
+                            key=lambda u: (abs(u), u))
             centres.extend((u, v) for v in vs for u in us)
             # how far the finger boxes reach along the insertion direction, per unit offset
             reach = None
@@ -545,14 +555,20 @@ def collision_free(grasps: Iterable[Grasp],
     rejections : Rejections
         Receives every rejected candidate's reason.
     max_candidates : int
-        Stop after examining this many candidates.
+        Stop after examining this many candidates, not counting those whose fingers reach
+        below the table top (up to four times as many of those).
     """
+    table_only = 0
     for g in grasps:
-        if rejections.examined >= max_candidates:
+        if rejections.examined - table_only >= max_candidates or table_only >= 4 * max_candidates:
             return
         rejections.examined += 1
         where, pairs = collisions(g)
         if pairs:
             rejections.add(where, pairs)
+            # a finger below the table top is found without a collision query: such
+            # candidates (most of a part lying on the table) do not use up the budget
+            if len(pairs) == 1 and pairs[0].b == "table":
+                table_only += 1
             continue
         yield g

@@ -324,7 +324,8 @@ class MotionPlanner:
         failures: list[_GraspFailed] = []
         ompl_s = check_s = grasp_s = 0.0
         free = collision_free(
-            candidates, lambda g: self._grasp_collisions(g, part, T_start, T_final, obstacles),
+            candidates, lambda g: self._grasp_collisions(g, part, T_start, T_final, obstacles,
+                                                         None if self.seats_directly else T_pre),
             rejected, settings.max_grasp_candidates)
         for g in free:
             grasp_s += time.perf_counter() - t_g
@@ -367,11 +368,15 @@ class MotionPlanner:
         raise NoGraspError(part, reasons, index)
 
     def _grasp_collisions(self, g: Grasp, part: str, T_start: np.ndarray, T_final: np.ndarray,
-                          obstacles: list[str]) -> tuple[str, list[CollidingPair]]:
+                          obstacles: list[str], T_pre: np.ndarray | None = None
+                          ) -> tuple[str, list[CollidingPair]]:
         """Fingers (the space they sweep while closing) at the start and assembled poses, and
         the open gripper against the part itself. The fingers must also keep the process's
         position tolerance from every obstacle at both poses (a real gripper is only placed
-        that accurately)."""
+        that accurately). With ``T_pre`` (the part's pre-insertion pose), the closed gripper
+        must also be free along the straight insertion (exact swept volume): a grasp inside a
+        housing that the gripper cannot enter is rejected here, before its motion is planned
+        (it would use up the ``max_grasps`` full attempts)."""
         scene = self.scene
         scene.use_gripper(g, self.product.gripper_for(part))
         margin = self.product.process.position_tolerance_m
@@ -388,6 +393,12 @@ class MotionPlanner:
             if d < margin:
                 return (f"{where} (closer than the position tolerance "
                         f"{margin * 1e3:.2f} mm)", [CollidingPair(GRIPPER_SPAN, who, None)])
+        if T_pre is not None:
+            G_pre = T_pre @ g.T_part_gripper
+            delta = (T_final @ g.T_part_gripper)[:3, 3] - G_pre[:3, 3]
+            hit = scene.sweep([(GRIPPER_CLOSED, G_pre)], delta, obstacles).get(GRIPPER_CLOSED)
+            if hit:
+                return "insertion", [CollidingPair(GRIPPER_CLOSED, o) for o in sorted(hit)]
         scene.set_part_pose(part, T_start)
         if scene.hits(GRIPPER_OPEN, T_start @ g.T_part_gripper, [part]):
             return "grasp (open fingers on the part)", [CollidingPair(GRIPPER_OPEN, part)]
