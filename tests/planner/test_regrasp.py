@@ -114,3 +114,28 @@ def test_plan_rejects_a_regrasp_out_of_sequence(sleeve_plan):
     _, _, plan = sleeve_plan
     with pytest.raises(ValueError, match="sequence order"):
         replace(plan, sequence=("sleeve", "block"))
+
+
+@pytest.mark.slow
+def test_gearbox_bearing_pressed_from_outside_gets_a_grasp_on_its_flange():
+    """The gearbox's flanged bearing (issue 18): once in its seat only the 3 mm flange stands
+    out of the wall, so only fingers coming along the bearing's axis and covering 2 mm of the
+    flange rim fit; on the tray (on edge) that grasp puts the palm into the table: it is put
+    down on its end and picked again."""
+    from asmplan.planner.motion import MotionPlanner
+    from asmplan.planner.partdata import part_data
+
+    product = load_product(SLEEVE.parent / "gearbox.yaml")
+    settings = PlannerSettings()
+    planner = MotionPlanner(product, settings,
+                            part_data(product, settings, ProductGeometry(product)))
+    steps = [s for s, _ in planner.plan_steps(1, "bearing_1")]
+    assert [s.kind for s in steps] == ["regrasp", "insert"]
+    insert = steps[1]
+    approach = insert.T_world_final[:3, :3] @ insert.grasp.approach_axis_part
+    np.testing.assert_allclose(approach, [1, 0, 0], atol=1e-9)  # along the bearing's axis
+    # the fingertips (pad centre + half the pad length along the approach) stop short of the
+    # wall face (x = -66 mm) by at least the position tolerance
+    tip = (insert.T_world_final @ insert.grasp.T_part_gripper)[:3, 3] + approach * 0.015
+    assert tip[0] <= -0.066 - product.process.position_tolerance_m + 1e-9
+    assert "bearing_1" in planner.placed
