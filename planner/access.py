@@ -53,6 +53,9 @@ class AccessSettings:
         that must precede the step anyway are skipped (no order can free them).
     max_candidates : int
         Grasp candidates examined at most per part and insertion direction.
+    patience : int
+        Stop once this many grasps in a row were kept without giving a new minimal set
+        (neighbouring offsets of one grasp family meet the same parts).
     grasp_standoff_m : float
         Retreat of the open gripper after release, m (the motion planner's
         ``grasp_standoff_m``).
@@ -67,13 +70,14 @@ class AccessSettings:
 
     max_grasps: int = 24
     max_candidates: int = 200
+    patience: int = 8
     grasp_standoff_m: float = 0.03
     finger_clearance_m: float = 3e-3
     contact_tolerance_m: float = 2e-5
     sample_step_m: float = 2e-3
 
     def __post_init__(self) -> None:
-        for name in ("max_grasps", "max_candidates"):
+        for name in ("max_grasps", "max_candidates", "patience"):
             v = getattr(self, name)
             if not (isinstance(v, int) and v >= 1):
                 raise ValueError(f"AccessSettings.{name}: expected an integer >= 1, found {v!r}")
@@ -195,8 +199,9 @@ class GripperAccess:
                                           product.process.safety_factor))
         sets: list[frozenset[str]] = []
         examined = below = before = 0
+        stale = 0  # grasps kept in a row that gave no new minimal set
         for g in itertools.islice(cands, s.max_candidates):
-            if len(sets) >= s.max_grasps:
+            if len(sets) >= s.max_grasps or stale >= s.patience:
                 break
             examined += 1
             scene.use_gripper(g, gripper)
@@ -214,16 +219,27 @@ class GripperAccess:
             d, who = scene.closest([(GRIPPER_SPAN, G)], others, margin)
             if d < margin and who:
                 met.add(who)
-            # the straight insertion (closed) and the retreat (open), sampled
-            met |= _segment_hits(scene, GRIPPER_CLOSED, G, -u * pre_distance_m, others,
-                                 s.sample_step_m)
-            met |= _segment_hits(scene, GRIPPER_OPEN, G, -G[:3, 2] * s.grasp_standoff_m,
-                                 others, s.sample_step_m)
+            if met & required:
+                before += 1
+                continue
+            if any(o <= met for o in sets):  # the segments only add parts: not minimal
+                sets.append(frozenset(met))
+                stale += 1
+                continue
+            # the straight insertion (closed) and the retreat (open)
+            for body, delta in ((GRIPPER_CLOSED, -u * pre_distance_m),
+                                (GRIPPER_OPEN, -G[:3, 2] * s.grasp_standoff_m)):
+                met |= _segment_hits(scene, body, G, delta, others, s.sample_step_m)
+                if met & required:
+                    break
             met.discard(TABLE)
             if met & required:
                 before += 1
             else:
+                stale = stale + 1 if any(o <= met for o in sets) else 0
                 sets.append(frozenset(met))
+                if not met:  # free in every partial assembly: no other grasp can add to it
+                    break
         minimal = sorted({m for m in sets if not any(o < m for o in sets)},
                          key=lambda m: (len(m), sorted(m)))
         return Access(part, tuple(minimal), examined, below, before)
@@ -231,15 +247,13 @@ class GripperAccess:
 
 def _segment_hits(scene: Any, body: str, T: np.ndarray, delta: np.ndarray,
                   obstacles: list[str], step_m: float) -> set[str]:
-    """Obstacles that ``body`` meets at samples (``step_m`` apart) of the straight segment
-    from ``T`` to ``T`` moved by ``delta`` (world, m)."""
-    n = max(1, math.ceil(float(np.linalg.norm(delta)) / step_m))
-    out: set[str] = set()
-    for k in range(1, n + 1):
-        Tk = T.copy()
-        Tk[:3, 3] += delta * (k / n)
-        out.update(scene.hits(body, Tk, [o for o in obstacles if o not in out]))
-    return out
+    """Obstacles that ``body`` meets on the straight segment from ``T`` to ``T`` moved by
+    ``delta`` (world, m): the exact swept volume of its convex pieces
+    (:meth:`asmplan.planner.scene.Scene.sweep`), the pose at ``T`` itself included (one
+    query per obstacle instead of one per ``step_m`` sample; ``step_m`` is kept for the
+    settings' sake and unused)."""
+    del step_m
+    return set(scene.sweep([(body, T)], delta, obstacles).get(body, set()))
 
 
 __all__ = ["Access", "AccessSettings", "GripperAccess"]
