@@ -54,8 +54,9 @@ class AccessSettings:
     max_candidates : int
         Grasp candidates examined at most per part and insertion direction.
     patience : int
-        Stop once this many grasps in a row were kept without giving a new minimal set
-        (neighbouring offsets of one grasp family meet the same parts).
+        Once a grasp is kept, stop after this many candidates in a row that give no new
+        minimal set (neighbouring offsets of one grasp family meet the same parts; the
+        candidates after them are ranked worse).
     grasp_standoff_m : float
         Retreat of the open gripper after release, m (the motion planner's
         ``grasp_standoff_m``).
@@ -70,7 +71,7 @@ class AccessSettings:
 
     max_grasps: int = 24
     max_candidates: int = 200
-    patience: int = 8
+    patience: int = 24
     grasp_standoff_m: float = 0.03
     finger_clearance_m: float = 3e-3
     contact_tolerance_m: float = 2e-5
@@ -190,20 +191,24 @@ class GripperAccess:
         part_limit_N = product.part(part).handling.max_clamp_force_N
         if part_limit_N is not None:
             limit_N = min(limit_N, float(part_limit_N))
+        dropped: dict[str, int] = {}
         cands = iter_grasps(part, data.surface, gripper, product.part(part).handling.grasp,
                             part_friction=product.part(part).friction,
                             finger_clearance_m=s.finger_clearance_m,
                             down_start_part=T_start[:3, :3].T @ -_Z,
                             down_final_part=T_final[:3, :3].T @ -_Z,
                             load=GripLoad(data.mass_kg, float(limits_a), limit_N,
-                                          product.process.safety_factor))
+                                          product.process.safety_factor),
+                            table_poses=(T_start, T_final), table_margin_m=margin,
+                            stats=dropped)
         sets: list[frozenset[str]] = []
         examined = below = before = 0
-        stale = 0  # grasps kept in a row that gave no new minimal set
+        stale = 0  # candidates in a row, since one was kept, that gave no new minimal set
         for g in itertools.islice(cands, s.max_candidates):
             if len(sets) >= s.max_grasps or stale >= s.patience:
                 break
             examined += 1
+            stale += 1 if sets else 0
             scene.use_gripper(g, gripper)
             span = scene.piece_boxes(scene.world.model(GRIPPER_SPAN)).reshape(-1, 3)
             low = [float((span @ (T @ g.T_part_gripper)[2, :3] + (T @ g.T_part_gripper)[2, 3])
@@ -224,7 +229,6 @@ class GripperAccess:
                 continue
             if any(o <= met for o in sets):  # the segments only add parts: not minimal
                 sets.append(frozenset(met))
-                stale += 1
                 continue
             # the straight insertion (closed) and the retreat (open)
             for body, delta in ((GRIPPER_CLOSED, -u * pre_distance_m),
@@ -236,7 +240,8 @@ class GripperAccess:
             if met & required:
                 before += 1
             else:
-                stale = stale + 1 if any(o <= met for o in sets) else 0
+                if not any(o <= met for o in sets):
+                    stale = 0
                 sets.append(frozenset(met))
                 if not met:  # free in every partial assembly: no other grasp can add to it
                     break

@@ -254,6 +254,9 @@ def iter_grasps(
     insertion_part: np.ndarray | None = None,
     lead_limit_m: float | None = None,
     load: GripLoad | None = None,
+    table_poses: Sequence[np.ndarray] = (),
+    table_margin_m: float = 0.0,
+    stats: dict[str, int] | None = None,
 ) -> Iterator[Grasp]:
     """Antipodal grasps of one part in increasing cost (see the module docstring), lazily.
 
@@ -290,6 +293,14 @@ def iter_grasps(
         Mass, acceleration and force limit: the stability term of the ranking is then the
         moment about the closing axis (:meth:`GripLoad.torque_cost`) instead of the centre
         of mass offset over the part's size.
+    table_poses : sequence of (4, 4) float arrays, optional
+        World poses of the part (start, assembled) at which the fingers must stay
+        ``table_margin_m`` above the table top (z = 0): a candidate whose lower finger is
+        certainly lower at one of them (whatever its width) is dropped before it is
+        evaluated, and counted in ``stats["below_table"]``. The full check stays the
+        caller's (the palm, the exact width).
+    stats : dict, optional
+        Receives counts of dropped candidates.
 
     Yields
     ------
@@ -353,6 +364,16 @@ def iter_grasps(
             centres: list[tuple[float, float]] = []
             if is_hint and hint_o is not None:
                 centres.append((float((hint_o - com) @ x), float((hint_o - com) @ a)))
+            # the lower finger's lowest corner at each table pose is at most
+            # z0 + u x_z + v a_z + max(c_z y) - |x_z| W/2 - |a_z| L/2 - |c_z| T_f
+            floors = []
+            for T_tab in table_poses:
+                R_t = T_tab[:3, :3]
+                xz, cz, az = float(R_t[2] @ x), float(R_t[2] @ c), float(R_t[2] @ a)
+                z0 = float(T_tab[2, 3] + R_t[2] @ com)
+                y_top = max(cz * float(XYZ[1].min()), cz * float(XYZ[1].max()))
+                floors.append((xz, az, z0 + y_top - abs(xz) * W / 2 - abs(az) * L / 2
+                               - abs(cz) * T_f - table_margin_m))
             xlo, xhi = float(XYZ[0].min()), float(XYZ[0].max())
             zlo, zhi = float(XYZ[2].min()), float(XYZ[2].max())
             v_lo = zlo - L / 2 + min_overlap_m
@@ -393,6 +414,10 @@ def iter_grasps(
                         if v_lo <= v <= v_hi:
                             centres.append((u, round(v, 9)))
             for u, v in centres:
+                if any(k + u * xz + v * az < 0.0 for xz, az, k in floors):
+                    if stats is not None:
+                        stats["below_table"] = stats.get("below_table", 0) + 1
+                    continue
                 known = base + (math.hypot(u, v) / size if load is None
                                 else load.torque_cost(math.hypot(u, v), mu, W))
                 if (reach is not None and lead_limit_m is not None
