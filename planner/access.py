@@ -64,6 +64,10 @@ class AccessSettings:
         Opening per finger beyond the part's width, m (``PlannerSettings``).
     contact_tolerance_m : float
         Penetration that counts as touching, m (``PlannerSettings``).
+    surface_samples : int
+        Surface samples per part for the screened grasps (the motion planner's
+        ``surface_samples`` is 3000; a screening needs the grasp families, not their exact
+        contact areas).
     sample_step_m : float
         Spacing of the checked poses along the insertion and the retreat, m (a screening
         step: the motion planner proves the chosen motion exactly).
@@ -72,13 +76,14 @@ class AccessSettings:
     max_grasps: int = 24
     max_candidates: int = 200
     patience: int = 24
+    surface_samples: int = 1000
     grasp_standoff_m: float = 0.03
     finger_clearance_m: float = 3e-3
     contact_tolerance_m: float = 2e-5
     sample_step_m: float = 2e-3
 
     def __post_init__(self) -> None:
-        for name in ("max_grasps", "max_candidates", "patience"):
+        for name in ("max_grasps", "max_candidates", "patience", "surface_samples"):
             v = getattr(self, name)
             if not (isinstance(v, int) and v >= 1):
                 raise ValueError(f"AccessSettings.{name}: expected an integer >= 1, found {v!r}")
@@ -150,7 +155,8 @@ class GripperAccess:
         from .scene import Scene
 
         ps = PlannerSettings(contact_tolerance_m=self.settings.contact_tolerance_m,
-                             finger_clearance_m=self.settings.finger_clearance_m)
+                             finger_clearance_m=self.settings.finger_clearance_m,
+                             surface_samples=self.settings.surface_samples)
         # the sequence planner's oracle carries the product's geometry; a box oracle or a
         # precomputed blocking table does not, and then the screening builds its own
         geometry = self.geometry if self.geometry is not None else ProductGeometry(self.product)
