@@ -396,9 +396,10 @@ class MotionPlanner:
         if T_pre is not None:
             G_pre = T_pre @ g.T_part_gripper
             delta = (T_final @ g.T_part_gripper)[:3, 3] - G_pre[:3, 3]
-            hit = scene.sweep([(GRIPPER_CLOSED, G_pre)], delta, obstacles).get(GRIPPER_CLOSED)
-            if hit:
-                return "insertion", [CollidingPair(GRIPPER_CLOSED, o) for o in sorted(hit)]
+            swept = scene.sweep([(GRIPPER_CLOSED, G_pre)], delta, obstacles)
+            if swept.get(GRIPPER_CLOSED):
+                return "insertion", [CollidingPair(GRIPPER_CLOSED, o)
+                                     for o in sorted(swept[GRIPPER_CLOSED])]
         scene.set_part_pose(part, T_start)
         if scene.hits(GRIPPER_OPEN, T_start @ g.T_part_gripper, [part]):
             return "grasp (open fingers on the part)", [CollidingPair(GRIPPER_OPEN, part)]
