@@ -53,6 +53,10 @@ class AccessSettings:
         that must precede the step anyway are skipped (no order can free them).
     max_candidates : int
         Grasp candidates examined at most per part and insertion direction.
+    patience : int
+        Once a grasp is kept, stop after this many candidates in a row that give no new
+        minimal set (neighbouring offsets of one grasp family meet the same parts; the
+        candidates after them are ranked worse).
     grasp_standoff_m : float
         Retreat of the open gripper after release, m (the motion planner's
         ``grasp_standoff_m``).
@@ -60,6 +64,10 @@ class AccessSettings:
         Opening per finger beyond the part's width, m (``PlannerSettings``).
     contact_tolerance_m : float
         Penetration that counts as touching, m (``PlannerSettings``).
+    surface_samples : int
+        Surface samples per part for the screened grasps (the motion planner's
+        ``surface_samples`` is 3000; a screening needs the grasp families, not their exact
+        contact areas).
     sample_step_m : float
         Spacing of the checked poses along the insertion and the retreat, m (a screening
         step: the motion planner proves the chosen motion exactly).
@@ -67,13 +75,15 @@ class AccessSettings:
 
     max_grasps: int = 24
     max_candidates: int = 200
+    patience: int = 24
+    surface_samples: int = 1000
     grasp_standoff_m: float = 0.03
     finger_clearance_m: float = 3e-3
     contact_tolerance_m: float = 2e-5
     sample_step_m: float = 2e-3
 
     def __post_init__(self) -> None:
-        for name in ("max_grasps", "max_candidates"):
+        for name in ("max_grasps", "max_candidates", "patience", "surface_samples"):
             v = getattr(self, name)
             if not (isinstance(v, int) and v >= 1):
                 raise ValueError(f"AccessSettings.{name}: expected an integer >= 1, found {v!r}")
@@ -145,7 +155,8 @@ class GripperAccess:
         from .scene import Scene
 
         ps = PlannerSettings(contact_tolerance_m=self.settings.contact_tolerance_m,
-                             finger_clearance_m=self.settings.finger_clearance_m)
+                             finger_clearance_m=self.settings.finger_clearance_m,
+                             surface_samples=self.settings.surface_samples)
         # the sequence planner's oracle carries the product's geometry; a box oracle or a
         # precomputed blocking table does not, and then the screening builds its own
         geometry = self.geometry if self.geometry is not None else ProductGeometry(self.product)
@@ -186,19 +197,24 @@ class GripperAccess:
         part_limit_N = product.part(part).handling.max_clamp_force_N
         if part_limit_N is not None:
             limit_N = min(limit_N, float(part_limit_N))
+        dropped: dict[str, int] = {}
         cands = iter_grasps(part, data.surface, gripper, product.part(part).handling.grasp,
                             part_friction=product.part(part).friction,
                             finger_clearance_m=s.finger_clearance_m,
                             down_start_part=T_start[:3, :3].T @ -_Z,
                             down_final_part=T_final[:3, :3].T @ -_Z,
                             load=GripLoad(data.mass_kg, float(limits_a), limit_N,
-                                          product.process.safety_factor))
+                                          product.process.safety_factor),
+                            table_poses=(T_start, T_final), table_margin_m=margin,
+                            stats=dropped)
         sets: list[frozenset[str]] = []
         examined = below = before = 0
+        stale = 0  # candidates in a row, since one was kept, that gave no new minimal set
         for g in itertools.islice(cands, s.max_candidates):
-            if len(sets) >= s.max_grasps:
+            if len(sets) >= s.max_grasps or stale >= s.patience:
                 break
             examined += 1
+            stale += 1 if sets else 0
             scene.use_gripper(g, gripper)
             span = scene.piece_boxes(scene.world.model(GRIPPER_SPAN)).reshape(-1, 3)
             low = [float((span @ (T @ g.T_part_gripper)[2, :3] + (T @ g.T_part_gripper)[2, 3])
@@ -214,16 +230,27 @@ class GripperAccess:
             d, who = scene.closest([(GRIPPER_SPAN, G)], others, margin)
             if d < margin and who:
                 met.add(who)
-            # the straight insertion (closed) and the retreat (open), sampled
-            met |= _segment_hits(scene, GRIPPER_CLOSED, G, -u * pre_distance_m, others,
-                                 s.sample_step_m)
-            met |= _segment_hits(scene, GRIPPER_OPEN, G, -G[:3, 2] * s.grasp_standoff_m,
-                                 others, s.sample_step_m)
+            if met & required:
+                before += 1
+                continue
+            if any(o <= met for o in sets):  # the segments only add parts: not minimal
+                sets.append(frozenset(met))
+                continue
+            # the straight insertion (closed) and the retreat (open)
+            for body, delta in ((GRIPPER_CLOSED, -u * pre_distance_m),
+                                (GRIPPER_OPEN, -G[:3, 2] * s.grasp_standoff_m)):
+                met |= _segment_hits(scene, body, G, delta, others, s.sample_step_m)
+                if met & required:
+                    break
             met.discard(TABLE)
             if met & required:
                 before += 1
             else:
+                if not any(o <= met for o in sets):
+                    stale = 0
                 sets.append(frozenset(met))
+                if not met:  # free in every partial assembly: no other grasp can add to it
+                    break
         minimal = sorted({m for m in sets if not any(o < m for o in sets)},
                          key=lambda m: (len(m), sorted(m)))
         return Access(part, tuple(minimal), examined, below, before)
@@ -231,15 +258,13 @@ class GripperAccess:
 
 def _segment_hits(scene: Any, body: str, T: np.ndarray, delta: np.ndarray,
                   obstacles: list[str], step_m: float) -> set[str]:
-    """Obstacles that ``body`` meets at samples (``step_m`` apart) of the straight segment
-    from ``T`` to ``T`` moved by ``delta`` (world, m)."""
-    n = max(1, math.ceil(float(np.linalg.norm(delta)) / step_m))
-    out: set[str] = set()
-    for k in range(1, n + 1):
-        Tk = T.copy()
-        Tk[:3, 3] += delta * (k / n)
-        out.update(scene.hits(body, Tk, [o for o in obstacles if o not in out]))
-    return out
+    """Obstacles that ``body`` meets on the straight segment from ``T`` to ``T`` moved by
+    ``delta`` (world, m): the exact swept volume of its convex pieces
+    (:meth:`asmplan.planner.scene.Scene.sweep`), the pose at ``T`` itself included (one
+    query per obstacle instead of one per ``step_m`` sample; ``step_m`` is kept for the
+    settings' sake and unused)."""
+    del step_m
+    return set(scene.sweep([(body, T)], delta, obstacles).get(body, set()))
 
 
 __all__ = ["Access", "AccessSettings", "GripperAccess"]

@@ -14,7 +14,8 @@ composites with holes, imported meshes):
    start pose (and the hint's ``approach_axis``);
 3. offsets of the pad centre along the approach axis (steps of a sixth of the finger length)
    and along the finger width (half-finger steps on parts wider than a finger; centred or
-   sticking out on one side only, its other edge 1 mm inside the part, on narrower ones),
+   sticking out on one side only, its other edge 1 mm inside the part, or covering only one
+   end of the part in steps of an eighth of a finger width or 1 mm, on narrower ones),
    centred on the centre of mass.
 
 For each candidate the pads are the finger boxes' inner faces, ``width x length`` rectangles
@@ -22,8 +23,9 @@ For each candidate the pads are the finger boxes' inner faces, ``width x length`
 the contact: the outermost points along the closing axis touch the pads; those within
 ``CONTACT_BAND_M`` of the extreme count as contact area, and their normals must lie inside the
 friction cone (``mu = finger friction * part friction``) of the closing direction. Rejected:
-no contact on one side, a normal outside the cone, a width beyond the stroke (minus the
-opening clearance on both sides), any surface point inside the palm box.
+no contact on one side, a normal outside the cone, a contact area below
+``MIN_CONTACT_FRACTION`` of the pad's, a width beyond the stroke (minus the opening clearance
+on both sides), any surface point inside the palm box.
 
 Ranking
 -------
@@ -59,6 +61,11 @@ CONTACT_BAND_M = 3e-4
 _MIN_CONTACT_POINTS = 3
 _MAX_OFFSETS = 41  # pad centres per axis and candidate frame (the whole part, every depth)
 G_M_S2 = 9.81
+MIN_CONTACT_FRACTION = 0.02
+"""Smallest contact area of a pad, as a share of the pad's area: a pad that touches the part
+only along an edge (a 45 deg pinch of a sleeve's rim, 3 mm^2 of a 600 mm^2 pad) cannot hold
+the moment of an insertion; a pad on a cylinder's flank a few mm deep touches 20-30 mm^2."""
+_END_STEP_M = 1e-3  # finest step of a finger covering only an end of a narrow part
 _EDGE_INSET_M = 1e-3  # a finger sticking out on one side keeps its other edge this far in
 _STOP_GAP_M = 2.5e-4  # fingertips stopped this far short of the lead limit
 _ANGLE_STEP_RAD = math.pi / 4
@@ -81,6 +88,10 @@ class GraspSurface:
     kind : str
         Geometry kind ("box", "cylinder", "composite", "mesh", ...); cylinders add radial
         closing axes about their local z axis.
+    n_area : int, optional
+        The first ``n_area`` points are area samples (face normals); the rest are mesh
+        vertices, whose averaged normals on edges say nothing about the faces a pad touches
+        (the friction-cone test uses the area samples where a pad has enough of them).
     """
 
     points_m: np.ndarray
@@ -88,6 +99,7 @@ class GraspSurface:
     area_per_point_m2: float
     com_m: np.ndarray
     kind: str = "mesh"
+    n_area: int | None = None
     axes_cache: dict[float, list[np.ndarray]] = field(default_factory=dict, repr=False)
 
     @classmethod
@@ -107,7 +119,7 @@ class GraspSurface:
         normals = np.vstack([normals, vn])
         return cls(points_m=np.asarray(pts, float), normals=np.asarray(normals, float),
                    area_per_point_m2=float(mesh.area) / float(n_samples),
-                   com_m=np.asarray(com_m, float), kind=kind)
+                   com_m=np.asarray(com_m, float), kind=kind, n_area=int(n_samples))
 
 
 @dataclass(frozen=True)
@@ -242,6 +254,9 @@ def iter_grasps(
     insertion_part: np.ndarray | None = None,
     lead_limit_m: float | None = None,
     load: GripLoad | None = None,
+    table_poses: Sequence[np.ndarray] = (),
+    table_margin_m: float = 0.0,
+    stats: dict[str, int] | None = None,
 ) -> Iterator[Grasp]:
     """Antipodal grasps of one part in increasing cost (see the module docstring), lazily.
 
@@ -266,8 +281,10 @@ def iter_grasps(
     down_start_part, down_final_part : (3,) float arrays, optional
         World "down" (-z) expressed in the part frame at the start and final poses.
     min_overlap_m : float, optional
-        Smallest overlap of a pad with the part along the approach axis, m; default 3 mm, or
-        a quarter of the pad length for pads shorter than 12 mm (a short pad on a 3 mm head).
+        Smallest overlap of a pad with the part along the approach axis, m; default 2 mm (a
+        3 mm flange in front of a wall, the fingertips kept clear of the wall), or a quarter
+        of the pad length for pads shorter than 8 mm (a short pad on a 3 mm head). The
+        contact area floor (``MIN_CONTACT_FRACTION``) rejects what is too small to hold.
     insertion_part, lead_limit_m : (3,) float array and float, optional
         The insertion direction in the part frame and how far along it (from the centre of
         mass, m) the fingers may reach: grasps whose fingertips would lead the part into its
@@ -276,6 +293,14 @@ def iter_grasps(
         Mass, acceleration and force limit: the stability term of the ranking is then the
         moment about the closing axis (:meth:`GripLoad.torque_cost`) instead of the centre
         of mass offset over the part's size.
+    table_poses : sequence of (4, 4) float arrays, optional
+        World poses of the part (start, assembled) at which the fingers must stay
+        ``table_margin_m`` above the table top (z = 0): a candidate whose lower finger is
+        certainly lower at one of them (whatever its width) is dropped before it is
+        evaluated, and counted in ``stats["below_table"]``. The full check stays the
+        caller's (the palm, the exact width).
+    stats : dict, optional
+        Receives counts of dropped candidates.
 
     Yields
     ------
@@ -284,7 +309,7 @@ def iter_grasps(
     """
     W, T_f, L = (float(v) for v in gripper.finger_size_m)
     if min_overlap_m is None:
-        min_overlap_m = min(3e-3, L / 4)
+        min_overlap_m = min(2e-3, L / 4)
     palm = np.asarray(gripper.palm_size_m, float)
     mu = float(gripper.finger_friction) * float(part_friction)
     cos_cone = math.cos(math.atan(mu)) if mu > 0 else 1.0
@@ -339,6 +364,16 @@ def iter_grasps(
             centres: list[tuple[float, float]] = []
             if is_hint and hint_o is not None:
                 centres.append((float((hint_o - com) @ x), float((hint_o - com) @ a)))
+            # the lower finger's lowest corner at each table pose is at most
+            # z0 + u x_z + v a_z + max(c_z y) - |x_z| W/2 - |a_z| L/2 - |c_z| T_f
+            floors = []
+            for T_tab in table_poses:
+                R_t = T_tab[:3, :3]
+                xz, cz, az = float(R_t[2] @ x), float(R_t[2] @ c), float(R_t[2] @ a)
+                z0 = float(T_tab[2, 3] + R_t[2] @ com)
+                y_top = max(cz * float(XYZ[1].min()), cz * float(XYZ[1].max()))
+                floors.append((xz, az, z0 + y_top - abs(xz) * W / 2 - abs(az) * L / 2
+                               - abs(cz) * T_f - table_margin_m))
             xlo, xhi = float(XYZ[0].min()), float(XYZ[0].max())
             zlo, zhi = float(XYZ[2].min()), float(XYZ[2].max())
             v_lo = zlo - L / 2 + min_overlap_m
@@ -353,9 +388,15 @@ def iter_grasps(
                              for k in _steps(xlo + W / 2, xhi - W / 2, W / 2)}
                             | {round(xlo - W / 4, 9), round(xhi + W / 4, 9)},
                             key=lambda u: (abs(u), u))
-            else:  # narrower: centred, or sticking out on one side only (an edge 1 mm in)
+            else:  # narrower: centred, or sticking out on one side only (an edge 1 mm in),
+                # or covering only an end of it, in steps of an eighth of a finger or 1 mm
+                # (a bearing's 3 mm flange outside the wall it is pressed into)
+                e_step = min(W / 8, _END_STEP_M)
+                ends = {round(e, 9) for k in range(1, int((xhi - xlo) / e_step) + 1)
+                        for e in (xhi - k * e_step + W / 2, xlo + k * e_step - W / 2)}
                 us = sorted({0.0, round(xlo + _EDGE_INSET_M + W / 2, 9),
-                             round(xhi - _EDGE_INSET_M - W / 2, 9)}, key=lambda u: (abs(u), u))
+                             round(xhi - _EDGE_INSET_M - W / 2, 9)} | ends,
+                            key=lambda u: (abs(u), u))
             centres.extend((u, v) for v in vs for u in us)
             # how far the finger boxes reach along the insertion direction, per unit offset
             reach = None
@@ -373,6 +414,10 @@ def iter_grasps(
                         if v_lo <= v <= v_hi:
                             centres.append((u, round(v, 9)))
             for u, v in centres:
+                if any(k + u * xz + v * az < 0.0 for xz, az, k in floors):
+                    if stats is not None:
+                        stats["below_table"] = stats.get("below_table", 0) + 1
+                    continue
                 known = base + (math.hypot(u, v) / size if load is None
                                 else load.torque_cost(math.hypot(u, v), mu, W))
                 if (reach is not None and lead_limit_m is not None
@@ -395,7 +440,7 @@ def iter_grasps(
         x, c, a, XYZ, _ = frames[fi]
         if (fi, u) not in strips:
             if fi not in sorted_frames:
-                sorted_frames[fi] = _Frame(XYZ, N)
+                sorted_frames[fi] = _Frame(XYZ, N, surface.n_area)
             f = sorted_frames[fi]
             strips[fi, u] = (_Strip(f, u, W / 2), _Strip(f, u, palm[0] / 2))
         pad, palm_strip = strips[fi, u]
@@ -403,6 +448,8 @@ def iter_grasps(
                       float(gripper.stroke_m), finger_clearance_m, surface.area_per_point_m2,
                       hint)
         if g is None:
+            continue
+        if g[3] < MIN_CONTACT_FRACTION * pad_area:
             continue
         cost = known + 0.5 * (1.0 - min(1.0, g[3] / pad_area))
         heapq.heappush(heap, (cost, serial, g, is_hint))
@@ -429,13 +476,14 @@ def grasp_candidates(part: str, surface: GraspSurface, gripper: Gripper,
 class _Strip:
     """Surface points of one candidate frame within a band of gripper x, sorted by z."""
 
-    __slots__ = ("N", "Y", "Z")
+    __slots__ = ("N", "S", "Y", "Z")
 
     def __init__(self, frame: _Frame, u: float, half_width: float) -> None:
         keep = np.abs(frame.X - u) <= half_width
         self.Z = frame.Z[keep]
         self.Y = frame.Y[keep]
         self.N = frame.N[keep]
+        self.S = frame.S[keep]
 
     def window(self, z_lo: float, z_hi: float) -> slice:
         return slice(int(np.searchsorted(self.Z, z_lo, side="left")),
@@ -445,12 +493,14 @@ class _Strip:
 class _Frame:
     """Surface points projected on one candidate gripper frame, sorted by z (approach)."""
 
-    __slots__ = ("N", "X", "Y", "Z")
+    __slots__ = ("N", "S", "X", "Y", "Z")
 
-    def __init__(self, XYZ: np.ndarray, N: np.ndarray) -> None:
+    def __init__(self, XYZ: np.ndarray, N: np.ndarray, n_area: int | None = None) -> None:
         order = np.argsort(XYZ[2], kind="stable")
         self.X, self.Y, self.Z = XYZ[0, order], XYZ[1, order], XYZ[2, order]
         self.N = N[order]
+        # area samples (True) apart from mesh vertices (False); all area samples if unknown
+        self.S = (order < n_area) if n_area is not None else np.ones(order.size, bool)
 
 
 def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
@@ -471,8 +521,12 @@ def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
     bot = yin <= y_min + CONTACT_BAND_M
     if top.sum() < _MIN_CONTACT_POINTS or bot.sum() < _MIN_CONTACT_POINTS:
         return None
-    # the contact normals must lie inside the friction cone about the closing direction
-    n_in = pad.N[w]
+    # the contact normals must lie inside the friction cone about the closing direction;
+    # judged on the area samples where a pad has enough of them (a vertex on an edge carries
+    # the average of its faces' normals: 45 deg on the rim of a cylinder a pad just overlaps)
+    n_in, s_in = pad.N[w], pad.S[w]
+    if (top & s_in).sum() >= _MIN_CONTACT_POINTS and (bot & s_in).sum() >= _MIN_CONTACT_POINTS:
+        top, bot = top & s_in, bot & s_in
     top_ok = (n_in[top] @ c) >= cos_cone
     bot_ok = (n_in[bot] @ -c) >= cos_cone
     if top_ok.mean() < 0.5 or bot_ok.mean() < 0.5:
@@ -526,14 +580,20 @@ def collision_free(grasps: Iterable[Grasp],
     rejections : Rejections
         Receives every rejected candidate's reason.
     max_candidates : int
-        Stop after examining this many candidates.
+        Stop after examining this many candidates, not counting those whose fingers reach
+        below the table top (up to four times as many of those).
     """
+    table_only = 0
     for g in grasps:
-        if rejections.examined >= max_candidates:
+        if rejections.examined - table_only >= max_candidates or table_only >= 4 * max_candidates:
             return
         rejections.examined += 1
         where, pairs = collisions(g)
         if pairs:
             rejections.add(where, pairs)
+            # a finger below the table top is found without a collision query: such
+            # candidates (most of a part lying on the table) do not use up the budget
+            if len(pairs) == 1 and pairs[0].b == "table":
+                table_only += 1
             continue
         yield g

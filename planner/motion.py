@@ -75,6 +75,7 @@ from .ompl_backend import SE3Bounds, plan_se3
 from .partdata import PartData
 from .plan import Grasp, Plan, PlannerSettings, Step
 from .press import hand_over_pose, press_operation, press_step, product_press_fits
+from .regrasp import regrasp_poses
 from .scene import (
     GRIPPER_CLOSED,
     GRIPPER_OPEN,
@@ -192,13 +193,65 @@ class MotionPlanner:
         return SE3Bounds(lo, hi)
 
     # -- one step ---------------------------------------------------------------------------
+    def plan_steps(self, index: int, part: str, fallback_direction: np.ndarray | None = None
+                   ) -> list[tuple[Step, StepTiming]]:
+        """The steps that bring ``part`` into the current partial assembly, numbered from
+        ``index``: the step of :meth:`plan_step`, or when no grasp works both where the part
+        lies and where it goes, a regrasp step (put down on a free area of the table in
+        another orientation, :mod:`asmplan.planner.regrasp`) and the step from there."""
+        try:
+            return [self.plan_step(index, part, fallback_direction)]
+        except NoGraspError as exc:
+            if not self.settings.regrasp or self.product.is_fixtured(part):
+                raise
+            return self._regrasp(index, part, fallback_direction, exc)
+
+    def _regrasp(self, index: int, part: str, fallback_direction: np.ndarray | None,
+                 failure: NoGraspError) -> list[tuple[Step, StepTiming]]:
+        product, scene, data = self.product, self.scene, self.parts[part]
+        T_start = self.start_poses[part]
+        gripper = product.gripper_for(part)
+        avoid = [scene.world.aabb(n) for n in product.part_names if n != part]
+        avoid.append(scene.world.aabb(part))  # its own start footprint (a nest may be there)
+        clearance = float(gripper.stroke_m) / 2 + float(gripper.finger_size_m[1])
+        poses = regrasp_poses(data.points_m, data.com_m, T_start,
+                              product.T_world_assembled(part), avoid,
+                              product.resources.table.size_m, clearance)
+        tried: list[str] = []
+        for pose in poses[: self.settings.max_regrasp_poses]:
+            T_r = pose.T_world_part
+            try:
+                put = self.plan_step(index, part, fallback_direction, regrasp_to=T_r)
+            except PlanningError as exc:
+                tried.append(f"{pose.describe()}: putting it down: {exc}")
+                continue
+            note = (f"picked again where step {index + 1} put it down (regrasp: no grasp "
+                    f"holds it both on the tray and in its assembled pose)")
+            try:
+                pick = self.plan_step(index + 1, part, fallback_direction, T_start=T_r,
+                                      start_note=note)
+            except PlanningError as exc:
+                scene.set_part_pose(part, T_start)
+                tried.append(f"{pose.describe()}: picking it again: {exc}")
+                continue
+            return [put, pick]
+        reasons = [*failure.reasons, *(f"regrasp {k + 1}: {t}" for k, t in enumerate(tried))]
+        if not poses:
+            reasons.append("regrasp: no stable orientation other than the start pose's with "
+                           "a free area of the table to put the part down")
+        raise NoGraspError(part, reasons, index)
+
     # Complexity above C (radon): one step's stages (fixture, press hand-over, the part alone,
     # grasps best first with their failure bookkeeping) share the grasp state.
     def plan_step(self, index: int, part: str, fallback_direction: np.ndarray | None = None,
-                  grasp: Grasp | None = None) -> tuple[Step, StepTiming]:
+                  grasp: Grasp | None = None, *, T_start: np.ndarray | None = None,
+                  start_note: str | None = None, regrasp_to: np.ndarray | None = None
+                  ) -> tuple[Step, StepTiming]:
         """Plan the step that inserts ``part`` into the current partial assembly; on success
         the part is recorded as placed. ``grasp`` restricts the search to that grasp (the
-        benchmark's baseline uses the grasp of the real plan)."""
+        benchmark's baseline uses the grasp of the real plan). ``T_start``: where the part
+        is picked (default its start pose). ``regrasp_to``: instead put the part down there
+        on the table (a "regrasp" step; the part is not placed)."""
         t_start = time.perf_counter()
         c_start = time.process_time()
         product, settings, scene = self.product, self.settings, self.scene
@@ -211,12 +264,20 @@ class MotionPlanner:
             return step, StepTiming(part, time.perf_counter() - t_start,
                                     cpu_s=time.process_time() - c_start)
         data = self.parts[part]
-        press = press_operation(product, part, self.placed, data.mass_kg, self.press_fits, index)
+        if regrasp_to is None:
+            press = press_operation(product, part, self.placed, data.mass_kg, self.press_fits,
+                                    index)
+            spec = insertion_spec(product, part, self.placed, fallback_direction, index,
+                                  self.parts)
+            T_seated = product.T_world_assembled(part)
+        else:  # put down on the table, straight down
+            press = None
+            spec = InsertionSpec("place", -_Z, 0.0, (), (), math.inf)
+            T_seated = regrasp_to
         clamp = clamp_force(product, part, data.mass_kg, step=index, resistance_N=(
             product.process.insertion_resistance_N + (press.gripper_resistance_N if press else 0.0)))
-        spec = insertion_spec(product, part, self.placed, fallback_direction, index, self.parts)
-        T_start = self.start_poses[part]
-        T_seated = product.T_world_assembled(part)
+        if T_start is None:
+            T_start = self.start_poses[part]
         approach = product.process.approach_distance_m
         # a press operation: the robot hands the part over on the mouth, the ram seats it
         # (its stroke: the whole clearing travel of the pressed mates, e.g. a hinge pin
@@ -263,7 +324,8 @@ class MotionPlanner:
         failures: list[_GraspFailed] = []
         ompl_s = check_s = grasp_s = 0.0
         free = collision_free(
-            candidates, lambda g: self._grasp_collisions(g, part, T_start, T_final, obstacles),
+            candidates, lambda g: self._grasp_collisions(g, part, T_start, T_final, obstacles,
+                                                         None if self.seats_directly else T_pre),
             rejected, settings.max_grasp_candidates)
         for g in free:
             grasp_s += time.perf_counter() - t_g
@@ -271,6 +333,10 @@ class MotionPlanner:
                 step, o_s, c_s, checked = self._plan_with_grasp(
                     index, part, g, spec, clamp, T_start, T_pre, T_final, obstacles,
                     len(failures), sampled)
+                if regrasp_to is not None:
+                    step = replace(step, kind="regrasp")
+                elif start_note is not None:
+                    step = replace(step, start_note=start_note)
             except _GraspFailed as f:
                 failures.append(f)
                 if len(failures) >= settings.max_grasps:
@@ -281,7 +347,8 @@ class MotionPlanner:
             check_s += c_s
             if press is not None:
                 step = press_step(step, press, T_seated, product.process.insertion_speed_m_s)
-            self.placed.append(part)
+            if regrasp_to is None:
+                self.placed.append(part)
             scene.set_part_pose(part, T_seated)
             timing = StepTiming(part, time.perf_counter() - t_start, grasp_s, ompl_s, check_s,
                                 len(failures) + 1, checked, time.process_time() - c_start)
@@ -301,11 +368,15 @@ class MotionPlanner:
         raise NoGraspError(part, reasons, index)
 
     def _grasp_collisions(self, g: Grasp, part: str, T_start: np.ndarray, T_final: np.ndarray,
-                          obstacles: list[str]) -> tuple[str, list[CollidingPair]]:
+                          obstacles: list[str], T_pre: np.ndarray | None = None
+                          ) -> tuple[str, list[CollidingPair]]:
         """Fingers (the space they sweep while closing) at the start and assembled poses, and
         the open gripper against the part itself. The fingers must also keep the process's
         position tolerance from every obstacle at both poses (a real gripper is only placed
-        that accurately)."""
+        that accurately). With ``T_pre`` (the part's pre-insertion pose), the closed gripper
+        must also be free along the straight insertion (exact swept volume): a grasp inside a
+        housing that the gripper cannot enter is rejected here, before its motion is planned
+        (it would use up the ``max_grasps`` full attempts)."""
         scene = self.scene
         scene.use_gripper(g, self.product.gripper_for(part))
         margin = self.product.process.position_tolerance_m
@@ -322,6 +393,13 @@ class MotionPlanner:
             if d < margin:
                 return (f"{where} (closer than the position tolerance "
                         f"{margin * 1e3:.2f} mm)", [CollidingPair(GRIPPER_SPAN, who, None)])
+        if T_pre is not None:
+            G_pre = T_pre @ g.T_part_gripper
+            delta = (T_final @ g.T_part_gripper)[:3, 3] - G_pre[:3, 3]
+            swept = scene.sweep([(GRIPPER_CLOSED, G_pre)], delta, obstacles)
+            if swept.get(GRIPPER_CLOSED):
+                return "insertion", [CollidingPair(GRIPPER_CLOSED, o)
+                                     for o in sorted(swept[GRIPPER_CLOSED])]
         scene.set_part_pose(part, T_start)
         if scene.hits(GRIPPER_OPEN, T_start @ g.T_part_gripper, [part]):
             return "grasp (open fingers on the part)", [CollidingPair(GRIPPER_OPEN, part)]
@@ -388,7 +466,7 @@ class MotionPlanner:
         lever = float(np.linalg.norm(perp))
         # gravity turns the part only through the horizontal part of the lever, at the pick
         # and at the insertion pose (orientations in between are blends of these two)
-        R_s, R_f = self.start_poses[part][:3, :3], product.T_world_assembled(part)[:3, :3]
+        R_s, R_f = T_start[:3, :3], T_final[:3, :3]
         gravity_lever = max(float(np.linalg.norm((R @ perp)[:2])) for R in (R_s, R_f))
         try:
             clamp = clamp_force(product, part, clamp.mass_kg, step=index, lever_m=lever,

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any, Literal
@@ -30,7 +30,7 @@ from .trajectory import Trajectory
 PLAN_FORMAT = "asmplan-plan"
 PLAN_VERSION = 1
 
-StepKind = Literal["fixture", "insert", "place"]
+StepKind = Literal["fixture", "insert", "place", "regrasp"]
 
 
 def _pose(value: Any, name: str) -> np.ndarray:
@@ -222,6 +222,12 @@ class PlannerSettings:
     replan_attempts : int
         OMPL retries (halving the resolution, new seed offset) when a path fails the dense
         re-check.
+    regrasp : bool
+        When no grasp of a part works both where it lies and where it goes, put it down on
+        a free area of the table in another stable orientation and grasp it again (a
+        "regrasp" step, :mod:`asmplan.planner.regrasp`).
+    max_regrasp_poses : int
+        Poses to put a part down that are tried per step before giving up.
     collision_level : str
         Level of detail of the part models used for planning ("exact" or "convex", see
         :mod:`asmplan.parts.lod`); coarse models serve as a conservative first tier.
@@ -243,6 +249,8 @@ class PlannerSettings:
     surface_samples: int = 3000
     replan_attempts: int = 3
     collision_level: str = "convex"
+    regrasp: bool = True
+    max_regrasp_poses: int = 6
     timing: TimingSettings = field(default_factory=TimingSettings)
     arm: ArmSettings = field(default_factory=ArmSettings)
 
@@ -252,6 +260,11 @@ class PlannerSettings:
         for f in fields(self):
             v = getattr(self, f.name)
             if f.name in ("planner", "timing", "collision_level", "arm"):
+                continue
+            if f.name == "regrasp":
+                if not isinstance(v, bool):
+                    raise ValueError(f"PlannerSettings.regrasp: expected true or false, "
+                                     f"found {v!r}")
                 continue
             if f.name in ("seed", "replan_attempts"):
                 if not (isinstance(v, int) and v >= 0):
@@ -350,8 +363,11 @@ class Step:
     """One step of the plan.
 
     ``kind``: "fixture" (the part is in place from the start, held by a fixture; no
-    trajectory), "insert" (pick, carry and insert along the mate axis) or "place" (no mate
-    with the parts already placed: lowered onto its pose along ``insertion_direction``).
+    trajectory), "insert" (pick, carry and insert along the mate axis), "place" (no mate
+    with the parts already placed: lowered onto its pose along ``insertion_direction``) or
+    "regrasp" (no grasp holds the part both where it lies and where it goes: it is put down
+    on a free area of the table in another orientation, ``T_world_final``, and picked again
+    with another grasp by the part's next step, whose ``T_world_start`` is that pose).
     Poses are of the part, world frame; ``path_T_world_gripper`` is the planned (simplified,
     re-checked) path of the gripper TCP from the lifted pose to the pre-insertion pose.
     ``check_step_m`` is the finest step of the path certification; ``insertion_check_step_m``
@@ -383,9 +399,9 @@ class Step:
     press: PressOperation | None = None
 
     def __post_init__(self) -> None:
-        if self.kind not in ("fixture", "insert", "place"):
-            raise ValueError(f"step {self.index + 1}: kind expected fixture, insert or place, "
-                             f"found {self.kind!r}")
+        if self.kind not in ("fixture", "insert", "place", "regrasp"):
+            raise ValueError(f"step {self.index + 1}: kind expected fixture, insert, place or "
+                             f"regrasp, found {self.kind!r}")
         object.__setattr__(self, "T_world_start", _pose(self.T_world_start, "T_world_start"))
         object.__setattr__(self, "T_world_final", _pose(self.T_world_final, "T_world_final"))
         if self.T_world_pre_insertion is not None:
@@ -490,7 +506,8 @@ class Plan:
     sequence_note : str
         Where the sequence came from (e.g. the sequence planner's rank and score).
     steps : tuple of Step
-        One per part, in sequence order.
+        One per part, in sequence order, each preceded by the part's regrasp steps (kind
+        "regrasp") if it has any.
     settings : PlannerSettings
     """
 
@@ -503,7 +520,7 @@ class Plan:
     sequence_note: str = ""
 
     def __post_init__(self) -> None:
-        parts = tuple(s.part for s in self.steps)
+        parts = tuple(s.part for s in self.steps if s.kind != "regrasp")
         if parts != tuple(self.sequence):
             raise ValueError(f"plan: expected steps in sequence order {list(self.sequence)}, "
                              f"found {list(parts)}")
@@ -512,8 +529,8 @@ class Plan:
                 raise ValueError(f"plan: expected step index {k}, found {s.index}")
 
     def step(self, part: str) -> Step:
-        for s in self.steps:
-            if s.part == part:
+        for s in self.steps:  # the step that assembles it, not its regrasps
+            if s.part == part and s.kind != "regrasp":
                 return s
         raise KeyError(f'plan has no step for part "{part}"; parts: {", ".join(self.sequence)}')
 
@@ -573,12 +590,38 @@ class AssemblyState:
 def assembly_state(plan: Plan, index: int) -> AssemblyState:
     """The :class:`AssemblyState` while step ``index`` of ``plan`` runs.
 
-    Parts in place: fixtured ones (kind "fixture", in place from the start) and those of the
-    earlier steps, at their final (assembled) poses; the others at their start poses.
+    Parts in place: fixtured ones (kind "fixture", in place from the start) and those
+    assembled by the earlier steps, at their final (assembled) poses; a part put down by an
+    earlier regrasp step where that step left it; the others at their start poses.
     """
-    placed = {s.part for s in plan.steps[:index]} | {s.part for s in plan.steps
-                                                     if s.kind == "fixture"}
-    placed.discard(plan.steps[index].part)
-    poses = {s.part: (s.T_world_final if s.part in placed else s.T_world_start)
-             for s in plan.steps}
+    starts: dict[str, np.ndarray] = {}
+    for s in plan.steps:
+        starts.setdefault(s.part, s.T_world_start)
+    return state_before(plan.steps[: index + 1], starts,
+                        {s.part for s in plan.steps if s.kind == "fixture"})
+
+
+def state_before(steps: Sequence[Step], start_poses: Mapping[str, np.ndarray],
+                 fixtured: Iterable[str]) -> AssemblyState:
+    """Where every part is while the last of ``steps`` runs (the steps so far, in order).
+
+    Parameters
+    ----------
+    steps : sequence of Step
+        The plan's steps up to and including the running one.
+    start_poses : mapping of str to (4, 4) float array
+        Where every part lies before its first step, world frame, m.
+    fixtured : iterable of str
+        Parts in place from the start (their poses are taken from their steps or
+        ``start_poses``, which hold their assembled poses).
+    """
+    current = steps[-1]
+    poses = dict(start_poses)
+    placed = set(fixtured)
+    for s in steps[:-1]:
+        poses[s.part] = s.T_world_final
+        if s.kind != "regrasp":
+            placed.add(s.part)
+    placed.discard(current.part)
+    poses[current.part] = current.T_world_start
     return AssemblyState(poses, frozenset(placed))

@@ -135,11 +135,11 @@ def _plan_order(product: Product, settings: PlannerSettings, choice: SequenceCho
     for k, name in enumerate(sequence):
         if progress is not None:
             progress(k, len(sequence), name, "start")
-        step, timing = planner.plan_step(k, name, choice.insertions.get(name))
-        steps.append(step)
-        times.append(timing)
-        if on_step is not None:
-            on_step(tuple(sequence), step, planner.start_poses)
+        for step, timing in planner.plan_steps(len(steps), name, choice.insertions.get(name)):
+            steps.append(step)
+            times.append(timing)
+            if on_step is not None:
+                on_step(tuple(sequence), step, planner.start_poses)
         if progress is not None:
             progress(k, len(sequence), name, "done")
     note = choice.note

@@ -282,7 +282,9 @@ class Scene:
                           if self._swept_hits(cb, T, delta, [self.coarse_of(o)])]
                 if not coarse:
                     continue
-                hit = set(coarse) if cb == name else set(self._swept_hits(name, T, delta, coarse))
+                # always against the obstacles' planning-level models (a body without a
+                # coarse model, the gripper, met only their coarse hulls so far)
+                hit = set(self._swept_hits(name, T, delta, coarse))
             if hit:
                 out[name] = set(hit)
         return out

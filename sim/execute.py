@@ -491,7 +491,15 @@ def judge(
     held = record.phase_mask(*HELD_PHASES) & (record.t_s >= clamp_end - 1e-12)
     max_slip = float(np.max(record.slip_m[held])) if held.any() else 0.0
     max_slip_rad = float(np.max(record.slip_rad[held])) if held.any() else 0.0
-    lost = held & (np.max(record.measured_force_N, axis=1) <= 0.0)
+    # the hold phase lets the fingers settle while the part still rests where it lies: a
+    # gently commanded clamp (27 mN on a 1.2 g bolt) may close its fingers during it; the
+    # part must be in the fingers when the hold ends and at every sample from the lift on
+    no_force = np.max(record.measured_force_N, axis=1) <= 0.0
+    in_hold = record.phase_mask("hold")
+    lost = held & no_force & ~in_hold
+    if in_hold.any():
+        last_hold = int(np.flatnonzero(in_hold)[-1])
+        lost[last_hold] |= bool(held[last_hold] and no_force[last_hold])
     dropped = bool(lost.any()) or max_slip > criteria.drop_slip_m
     mae = (
         float(np.mean(np.abs(record.measured_force_N[held] - record.commanded_force_N[held, None])))

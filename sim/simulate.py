@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..knowledge.model import Product
-from ..planner.plan import AssemblyState, Plan, Step, assembly_state
+from ..planner.plan import AssemblyState, Plan, Step, assembly_state, state_before
 from .bullet import BulletWorld
 from .execute import execute_step, failed_outcome, scene_warnings
 from .fidelity import BALANCED, PRESETS, Fidelity
@@ -501,19 +501,13 @@ class PipelinedSimulation:
         if step.trajectory is None:
             return
         # what assembly_state(plan, index) gives on the finished plan: the parts of the earlier
-        # steps and the fixtured ones at their final poses, the others at their start poses
-        placed = {self._planned[i].part for i in range(step.index)}
-        placed |= {p for p in order if self.product.is_fixtured(p)}
-        placed.discard(step.part)
-        poses = {}
-        for i, part in enumerate(order):
-            done = self._planned.get(i) if i <= step.index else None
-            if done is not None:
-                poses[part] = done.T_world_final if part in placed else done.T_world_start
-            else:
-                poses[part] = (self.product.T_world_assembled(part) if part in placed
-                               else start_poses[part])
-        self._waiting[(order, step.index)] = (step, AssemblyState(poses, frozenset(placed)))
+        # steps and the fixtured ones at their final poses, a regrasped part where its regrasp
+        # put it down, the others at their start poses
+        fixtured = [p for p in order if self.product.is_fixtured(p)]
+        starts = {p: (self.product.T_world_assembled(p) if p in fixtured else start_poses[p])
+                  for p in order}
+        state = state_before([self._planned[i] for i in range(step.index + 1)], starts, fixtured)
+        self._waiting[(order, step.index)] = (step, state)
         self._submit_waiting(self.planning_workers)
 
     def _submit_waiting(self, limit: int | None) -> None:
