@@ -284,6 +284,7 @@ class PinHole:
     clamp_force_N: float = 5.0
     grasp_above_centre_m: float = 0.012
     seat_gap_m: float = 0.2e-3  # the gripper stops this far above the hole floor
+    coupled_gripper: bool = False  # synchronised fingers (CoupledGripper), as a real gripper
 
 
 def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_m: float = 0.0,
@@ -313,7 +314,11 @@ def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_
                              inertia_kgm2=cylinder_inertia(mass, r_pin, s.pin_length_m),
                              friction=s.pin_friction, name="pin")
         T_grasp = pose((0.0, 0.0, T_pin[2, 3] + s.grasp_above_centre_m))
-        gripper = Gripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004)
+        if s.coupled_gripper:
+            gripper = CoupledGripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004,
+                                     carried_mass_kg=mass)
+        else:
+            gripper = Gripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004)
         floor_z = s.block_size_m[2] - s.hole_depth_m
         seated_centre_z = floor_z + s.pin_length_m / 2.0
         lift_z = s.block_size_m[2] + 0.015 + s.pin_length_m / 2.0 + s.grasp_above_centre_m
