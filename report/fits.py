@@ -51,6 +51,6 @@ def grouped_fit_warning(rows: list[dict[str, Any]], fidelity_name: str,
     advice = sorted({r["advice"] for r in rows})
     return (f"{len(rows)} mate{'s' if len(rows) > 1 else ''} with a smallest diametral clearance "
             f"below what the {fidelity_name} preset resolves ({res:.0f} µm): {listed}. A success "
-            f"there means the pin fits at this resolution (it would also pass with up to "
-            f"{res:.0f} µm of interference), not that the fit is proven; a failed insertion "
+            f"there means the pin went in at this resolution (the capture boundary, rim stops "
+            f"and jams of a finer fit are not resolved), not that the fit is proven; a failed insertion "
             f"there may be numerical. {'; '.join(a[0].upper() + a[1:] for a in advice)}.")

@@ -361,9 +361,10 @@ def _fidelity_block(fidelity: Any) -> dict[str, Any]:
             ("geometry level of detail", str(fidelity.geometry_lod)),
             ("smallest resolvable diametral clearance",
              f"{fidelity.min_resolvable_clearance_m * 1e6:.0f} µm")]
-    accuracy = ("Measured for this preset (docs/physics.md, docs/benchmarks.md): a clearance below the "
-                "smallest resolvable one cannot be told from an interference at this preset; such "
-                "mates are listed in the warnings.")
+    accuracy = ("Measured for this preset (sim/fidelity.py, docs/physics.md, asmplan bench --sections "
+                "fits): below the smallest resolvable clearance the capture boundary, rim stops "
+                "and jams of a clearance fit are not resolved at this preset; such mates are "
+                "listed in the warnings.")
     return {"name": fidelity.name, "rows": rows, "accuracy": accuracy}
 
 

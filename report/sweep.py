@@ -103,8 +103,8 @@ def resolution_warnings(product: Product, fidelity: Any, samples: list[Any],
         if parts:
             out.append(f"step {step}: sampled clearances below what the {fidelity.name} preset "
                        f"resolves ({res * 1e6:.0f} µm): {'; '.join(parts)}. There the simulation "
-                       "cannot tell the fit from an interference: its rate says how the preset "
-                       "treats the part, not how the real fit behaves.")
+                       "does not resolve the fit's capture boundary, rim stops or jams: its rate "
+                       "says how the preset treats the part, not how the real fit behaves.")
     return out
 
 CRITERIA = {

@@ -255,8 +255,8 @@ def _is_compound(group: Sequence[ConvexPiece]) -> bool:
 
 PRISM_TOLERANCE_FRACTION = 0.05
 """A cylinder is simulated as a prism inscribed in it whose radial error ``r (1 - cos(pi/n))``
-is at most this fraction of the preset's smallest resolvable diametral clearance
-(``Fidelity.min_resolvable_clearance_m``), so the fit's clearance changes by at most a
+is at most this fraction of the preset's interference resolution
+(``Fidelity.interference_resolution_m``), so the fit's clearance changes by at most a
 tenth of it: 2.5 um at BALANCED (a 10 mm pin gets 100 sides), 1 um at ACCURATE (160 sides),
 20 um at FAST (36 sides)."""
 
@@ -329,14 +329,15 @@ BREAKING_CAP_EXTRA_UNITS = 2e-3
 
 def default_breaking_fraction(fidelity: Fidelity) -> float:
     """The world's breaking fraction: PyBullet's default (0.02) in metres; in millimetres the
-    fraction that makes the capped distance half the preset's smallest resolvable diametral
-    clearance (its radial gap: 25 um at BALANCED, 10 um at ACCURATE, less PyBullet's 2 um
-    of creation margins), so that no contact is created or kept across a gap the preset
-    claims to resolve (PyBullet's 0.02 gives 42 um)."""
+    fraction that makes the capped distance the preset's contact distance
+    (``Fidelity.contact_distance_m``, half its ``interference_resolution_m``: 25 um at
+    BALANCED, 10 um at ACCURATE, less PyBullet's 2 um of creation margins). PyBullet's 0.02
+    gives 42 um. A part approaching at v finds a contact before it penetrates when
+    v dt is below it (the rim of an unchamfered hole: ``Fidelity.min_resolvable_clearance_m``)."""
     units = float(fidelity.bullet_units_per_m)
     if units == 1.0:
         return PYBULLET_CONTACT_BREAKING_FRACTION
-    target_m = 0.5 * fidelity.min_resolvable_clearance_m - BREAKING_CAP_EXTRA_UNITS / units
+    target_m = fidelity.contact_distance_m - BREAKING_CAP_EXTRA_UNITS / units
     cap_m = BREAKING_RADIUS_CAP_UNITS / units
     return min(PYBULLET_CONTACT_BREAKING_FRACTION, max(target_m, 0.25 * target_m) / cap_m)
 
@@ -796,7 +797,7 @@ class BulletWorld:
                     f"moments {moments.tolist()}"
                 )
         if _PRIMITIVES_AS_HULLS and self.fidelity.collision_margin_m == 0.0:
-            tol = PRISM_TOLERANCE_FRACTION * self.fidelity.min_resolvable_clearance_m
+            tol = PRISM_TOLERANCE_FRACTION * self.fidelity.interference_resolution_m
             pieces = tuple(exact_hull(pc, tol) for pc in pieces)
         hulls = [pc for pc in pieces if pc.kind == "hull"]
         prim_groups = self._group_primitives([pc for pc in pieces if pc.kind != "hull"])

@@ -12,20 +12,32 @@ ACCURATE   1/4000   200       1e-6       on      "exact"; tight fits, final proo
 ========== ======== ========= ========== ======= ===================================
 
 ``min_resolvable_clearance_m`` is the smallest DIAMETRAL clearance c_d (hole diameter minus
-pin diameter) at which a preset still tells a fit from an interference: a gripper-driven,
-straight insertion of a 10 mm steel pin into a 20 mm deep blind hole (8-sided exact
-decomposition, no chamfer) must SUCCEED with a radial clearance of c_d / 2, and with an
-INTERFERENCE of c_d / 2 the pin must stay blocked at the entrance (less than 2 mm of the
-20 mm entered when the gripper stops pushing). Measured by sweeping the radial value over
-0.2, 0.1, 0.05, 0.025 and 0.01 mm (``tests/sim/test_presets.py`` re-checks the stored value;
-the sweep command is in docs/physics.md):
+pin diameter) of a clearance fit that a preset judges as capture geometry does (issue 17).
+Measured through the whole pipeline (:mod:`bench.fits`, ``asmplan bench --sections fits``):
+a steel pin planned and inserted by the gripper into a fixtured steel block, both
+UNCHAMFERED (so the capture boundary |e| < c_d / 2 is the fit's own), at the planner's
+insertion speed, with a robot pose error e across the axis; the step must SUCCEED with
+e = 0 and e = c_d / 4 and STOP ON THE RIM with e = c_d (twice the capture radius):
 
-* FAST: interference blocked down to 0.2 mm radial (0.1 mm was pushed 18 mm in) -> 0.4 mm.
-* BALANCED: blocked down to 0.025 mm (0.01 mm was pushed 7 mm in) -> 0.05 mm.
-* ACCURATE: blocked at 0.01 mm, the smallest value tested -> 0.02 mm.
+* FAST: rim at c_d = 2 mm; 1 mm, 0.4 mm and 0.1 mm were inserted 1x c_d off (its rims are
+  rounded by 0.41-0.73 mm in metre units) -> 2 mm.
+* BALANCED: right at 4 um (6 mm pin), 5 um (6 and 20 mm), 10 um (8 mm); at 2 um the pin
+  went in 2 um off (1 um overlap: the contact slop) -> 4 um.
+* ACCURATE: right at 4 um (6 mm pin) -> 4 um (finer values not measured).
 
-Below it an interference fit may be pushed through by penetration (a wrong "success"), so
-:func:`asmplan.sim.execute.scene_warnings` flags such fits.
+Below it a clearance fit's capture (and with it rim stops and jams) is not resolved, so
+:func:`asmplan.sim.simulate.clearance_warnings` flags such fits. What makes BALANCED resolve
+micrometres is the millimetre world (rims rounded by 1 um, EPA exact to 1 um) together with
+the contact distance (``contact_distance_m``): a contact is created that far before two
+bodies touch, so a part approaching at v finds the rim before it penetrates when
+v dt < ``contact_distance_m`` (10 um per step at the planner's 10 mm/s and 1/1000 s, against
+25 um); :func:`asmplan.sim.execute.scene_warnings` flags steps that approach faster.
+
+``interference_resolution_m`` is the older, different figure: the smallest interference a
+preset tells from a fit by rigid contact alone (an interference of c_d / 2 radial must stay
+blocked at the mouth of a 10 mm hole; FAST 0.4 mm, BALANCED 0.05 mm, ACCURATE 0.02 mm,
+docs/physics.md). Press fits are simulated at that clearance with their predicted press force
+(:mod:`asmplan.sim.press`), and the world's contact distance is half of it.
 """
 
 from __future__ import annotations
@@ -85,7 +97,12 @@ class Fidelity:
         within 0.1 um, clamp-force MAE within 0.0002 N, peak clamp force within 0.04 N of
         2.5-6.9 N.
     min_resolvable_clearance_m : float
-        Smallest diametral clearance this preset resolves (see the module docstring), m.
+        Smallest diametral clearance of a clearance fit this preset judges right (capture,
+        rim stop; see the module docstring), m.
+    interference_resolution_m : float
+        Smallest diametral interference this preset blocks by rigid contact (see the module
+        docstring), m: press fits are simulated at this clearance
+        (:func:`asmplan.sim.press.press_clearance_m`).
     dynamic_partners : bool
         Parts already in place that the held part mates with or touches are dynamic bodies
         (True: the insertion pushes a real body, which rests on its supports) or static
@@ -142,6 +159,7 @@ class Fidelity:
     geometry_lod: LevelOfDetail
     record_every_steps: int
     min_resolvable_clearance_m: float
+    interference_resolution_m: float
     dynamic_partners: bool = True
     friction_anchor: bool = False
     bullet_units_per_m: float = 1000.0
@@ -188,11 +206,18 @@ class Fidelity:
                 f"{self.record_every_steps}"
             )
         positive("min_resolvable_clearance_m", self.min_resolvable_clearance_m)
+        positive("interference_resolution_m", self.interference_resolution_m)
 
     @property
     def record_dt_s(self) -> float:
         """Time between two record rows, s."""
         return self.dt_s * self.record_every_steps
+
+    @property
+    def contact_distance_m(self) -> float:
+        """Contact creation and breaking distance of the world, m: half
+        ``interference_resolution_m`` (see the class docstring)."""
+        return 0.5 * self.interference_resolution_m
 
 
 
@@ -209,7 +234,8 @@ FAST = Fidelity(
     collision_margin_m=0.0,
     geometry_lod="coarse",
     record_every_steps=4,
-    min_resolvable_clearance_m=0.4e-3,
+    min_resolvable_clearance_m=2e-3,
+    interference_resolution_m=0.4e-3,
     dynamic_partners=False,
     friction_anchor=True,
     bullet_units_per_m=1.0,
@@ -228,7 +254,8 @@ BALANCED = Fidelity(
     collision_margin_m=0.0,
     geometry_lod="convex",
     record_every_steps=4,
-    min_resolvable_clearance_m=0.05e-3,
+    min_resolvable_clearance_m=4e-6,
+    interference_resolution_m=0.05e-3,
 )
 
 ACCURATE = Fidelity(
@@ -244,7 +271,8 @@ ACCURATE = Fidelity(
     collision_margin_m=0.0,
     geometry_lod="exact",
     record_every_steps=16,
-    min_resolvable_clearance_m=0.02e-3,
+    min_resolvable_clearance_m=4e-6,
+    interference_resolution_m=0.02e-3,
 )
 
 PRESETS: dict[str, Fidelity] = {f.name: f for f in (FAST, BALANCED, ACCURATE)}

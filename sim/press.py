@@ -3,8 +3,8 @@
 Rigid bodies cannot model an interference: the pin would be wider than its hole, and at
 zero clearance (line-to-line) a rigid pin wedges at the first tilt (measured: the 8 mm H7/s6
 dowel jammed 1.4 mm deep at BALANCED, tilted 5.9 deg). A press fit is therefore simulated
-with its geometry at the SMALLEST CLEARANCE THE PRESET RESOLVES (the simulated product has
-every interfering or transition mate at ``Fidelity.min_resolvable_clearance_m``,
+with its geometry at the SMALLEST INTERFERENCE THE PRESET BLOCKS (the simulated product has
+every interfering or transition mate at ``Fidelity.interference_resolution_m``,
 :func:`press_relaxed`: the guidance of the parts as the preset can judge it), and the
 elastic part of the joint as an axial resistance on the pressed part, predicted by
 :mod:`asmplan.knowledge.press_fit` (``F(x) = F_typical x / L``: the contact area grows with
@@ -56,11 +56,12 @@ _RELAXED: weakref.WeakKeyDictionary[Any, dict[float, tuple[Product, Any]]] = \
 
 
 def press_clearance_m(fidelity: Any, touch_tolerance_m: float) -> float:
-    """Diametral clearance a press fit is simulated at: the preset's smallest resolvable
-    clearance, but a radial gap below 90 % of the scene's touch tolerance (a mate partner
+    """Diametral clearance a press fit is simulated at: the smallest interference the preset
+    blocks by rigid contact (``Fidelity.interference_resolution_m``), but a radial gap below
+    90 % of the scene's touch tolerance (a mate partner
     farther than that from the seated part is taken for a plain obstacle, its holes filled:
     measured at FAST, 0.4 mm diametral = 0.2 mm radial, the dowel stood on a filled hole)."""
-    return float(min(fidelity.min_resolvable_clearance_m, 1.8 * touch_tolerance_m))
+    return float(min(fidelity.interference_resolution_m, 1.8 * touch_tolerance_m))
 
 
 def press_relaxed(product: Product, geometry: Any, clearance_m: float) -> tuple[Product, Any]:

@@ -42,8 +42,9 @@ modelled as a body. Everything else is left out.
 Contact breaking distance
 -------------------------
 When the held part has fits with parts in place, at least one of those partners is dynamic,
-and the smallest diametral clearance of the fits is one the fidelity resolves
-(``Fidelity.min_resolvable_clearance_m``), the scene limits the distance at which PyBullet
+and the smallest diametral clearance of the fits is at least the fidelity's interference
+resolution (``Fidelity.interference_resolution_m``, twice the world's contact distance), the
+scene limits the distance at which PyBullet
 creates and keeps a contact point between the held part and its dynamic fit partners to half
 that clearance (:attr:`StepScene.contact_breaking_m`, applied by :func:`build_scene` through
 :meth:`~asmplan.sim.bullet.BulletWorld.limit_contact_breaking_m`). At PyBullet's default
@@ -163,8 +164,8 @@ class SceneSettings:
         (``cull=False``) the placed parts follow the same choice.
     limit_contact_breaking : bool
         Limit the contact breaking distance between the held part and its dynamic fit
-        partners when the fidelity resolves the fits (see the module docstring); False keeps
-        PyBullet's default everywhere.
+        partners when the fits are at least the interference resolution (see the module
+        docstring); False keeps PyBullet's default everywhere.
     """
 
     near_margin_m: float = 5e-3
@@ -520,14 +521,15 @@ class _Selection:
 
     def contact_breaking(self, partners: dict[str, SceneBody]
                          ) -> tuple[float | None, tuple[str, ...]]:
-        """The contact breaking distance: below the radial gap of fits the preset resolves,
-        when a fit partner is dynamic (a phantom contact can push it)."""
+        """The contact breaking distance: half the fits' smallest clearance when that is at
+        least the preset's interference resolution and a fit partner is dynamic (a phantom
+        contact can push it)."""
         movable = sorted(o for o in self.mate_partners if o in partners and partners[o].dynamic)
         if not (self.s.limit_contact_breaking and movable):
             return None, ()
         tightest = min(self.fits, key=lambda m: m.clearance_min_m)
         c = float(tightest.clearance_min_m)
-        if c < self.fidelity.min_resolvable_clearance_m:
+        if c < self.fidelity.interference_resolution_m:
             return None, ()
         breaking = 0.5 * c
         self.notes.append(

@@ -95,7 +95,8 @@ def clearance_warnings(product: Product, fidelity: Fidelity) -> tuple[str, ...]:
             out.append(
                 head + f"a {m.kind} fit (interference up to {-c * 1e3:.3f} mm) cannot be "
                 "modelled by rigid bodies: it is simulated at a clearance the "
-                f"{fidelity.name} preset resolves (at most {res * 1e3:.3f} mm) with its "
+                f"{fidelity.name} preset resolves (at most "
+                f"{fidelity.interference_resolution_m * 1e3:.3f} mm) with its "
                 "predicted press force as an axial resistance (asmplan.sim.press): a success "
                 "shows the force and the guidance, not the fit's elastic contact.")
             continue
@@ -105,10 +106,11 @@ def clearance_warnings(product: Product, fidelity: Fidelity) -> tuple[str, ...]:
                   f"{better[-1].min_resolvable_clearance_m * 1e3:.3f} mm)")
         out.append(
             head + f"smallest diametral clearance {c * 1e3:.3f} mm is below what the "
-            f"{fidelity.name} preset resolves ({res * 1e3:.3f} mm). A success means the pin "
-            f"fits at this preset's resolution (it would also pass with up to "
-            f"{res * 1e3:.3f} mm of interference), not that the {c * 1e3:.3f} mm fit is proven; "
-            f"a failure of the insertion may be numerical. {advice}.")
+            f"{fidelity.name} preset resolves ({res * 1e3:.3f} mm; sim/fidelity.py): its "
+            f"capture boundary (lateral offset < c/2 + chamfers), rim stops and jams are not "
+            f"resolved there. A success means the pin went in at this preset's resolution, "
+            f"not that the {c * 1e3:.3f} mm fit is proven; a failure of the insertion may be "
+            f"numerical. {advice}.")
     return tuple(out)
 
 
@@ -126,8 +128,27 @@ def step_warnings(scene: StepScene, product: Product, step: Step, geometry: Prod
     dt = np.diff(step.trajectory.t_s)
     speed = float(np.max(np.linalg.norm(np.diff(p, axis=0), axis=1) / dt)) if dt.size else 0.0
     extents = np.asarray(geometry.mesh(step.part).extents, float)
-    return scene_warnings(fidelity.min_resolvable_clearance_m, clearances, masses,
-                          float(extents.min()), fidelity.dt_s, speed)
+    out = scene_warnings(fidelity.min_resolvable_clearance_m, clearances, masses,
+                         float(extents.min()), fidelity.dt_s, speed)
+    if step.kind == "insert":
+        out = out + insertion_speed_warnings(product, step.part, fidelity)
+    return out
+
+
+def insertion_speed_warnings(product: Product, part: str, fidelity: Fidelity) -> tuple[str, ...]:
+    """A warning when the part enters its fits faster than the preset finds a contact before
+    penetrating: ``insertion speed x dt_s`` above ``Fidelity.contact_distance_m`` (the rim of
+    an unchamfered hole may then be stepped over, sim/fidelity.py)."""
+    from ..planner.timing import motion_limits
+
+    v = motion_limits(product, part).insertion_speed_m_s
+    advance = v * fidelity.dt_s
+    if advance <= fidelity.contact_distance_m:
+        return ()
+    return (f"{part} is inserted at {v * 1e3:.1f} mm/s, {advance * 1e6:.1f} um per "
+            f"{fidelity.name} time step, more than the {fidelity.contact_distance_m * 1e6:.1f} um "
+            "at which the preset finds a contact before penetrating: a rim stop or jam of its "
+            "fits may be stepped over; lower process.insertion_speed or use a finer preset",)
 
 
 # ---------------------------------------------------------------------------------------------

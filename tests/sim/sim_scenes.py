@@ -16,7 +16,8 @@ SEED_CSV = (Path(__file__).parents[2] / "../shared/reference/clamp_cycle_seed.cs
 def print_clearance_sweep(
     name: str, radial_m: tuple[float, ...] = (0.2e-3, 0.1e-3, 0.05e-3, 0.025e-3, 0.01e-3)
 ) -> None:
-    """The measurement behind ``Fidelity.min_resolvable_clearance_m`` (prints one row per value).
+    """The measurement behind ``Fidelity.interference_resolution_m`` (one row per value; the
+    clearance-fit resolution ``min_resolvable_clearance_m`` is measured by bench/fits.py).
 
     Run: ``cd tests/sim && /tmp/venv/bin/python -c "import sim_scenes as s;
     s.print_clearance_sweep('balanced')"``

@@ -17,10 +17,30 @@ NAMES = ("fast", "balanced", "accurate")
 @pytest.mark.slow
 @pytest.mark.parametrize("name", NAMES)
 def test_min_resolvable_clearance_is_resolved(name):
-    """At the stored diametral clearance c_d: a fit of c_d/2 radial is inserted and an
+    """At the stored diametral clearance c_d, through the whole pipeline (bench/fits.py: an
+    unchamfered 6 mm steel pin into a fixtured block): the step succeeds on the axis and
+    c_d / 4 off it, and stops on the rim c_d off it (twice the capture radius c_d / 2), as
+    capture geometry says (see sim/fidelity.py)."""
+    from bench.fits import CASES, expected_verdict, run_fit
+
+    fid = preset(name)
+    c = fid.min_resolvable_clearance_m
+    runs = run_fit(6e-3, c, [fid], CASES)
+    for r in runs:
+        assert r.verdict == expected_verdict(r.case), (r.case, r.reasons)
+        if r.inserted:
+            assert r.depth_m == pytest.approx(r.engagement_m, abs=0.05e-3)
+        else:
+            assert r.depth_m < 0.5e-3
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", NAMES)
+def test_interference_resolution_is_resolved(name):
+    """At the stored interference resolution c_d: a fit of c_d/2 radial is inserted and an
     interference of c_d/2 stays blocked at the entrance (see sim/fidelity.py)."""
     fid = preset(name)
-    radial = fid.min_resolvable_clearance_m / 2
+    radial = fid.interference_resolution_m / 2
     _, fit = pin_insertion(fid, radial)
     assert fit.success, fit.reasons
     record, interference = pin_insertion(fid, -radial)

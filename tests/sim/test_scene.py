@@ -190,9 +190,9 @@ def test_levels_follow_the_fidelity_but_keep_holes_and_pins():
 
 def test_fits_the_preset_resolves_limit_the_contact_breaking_distance():
     # gear_unit's collar and cover mate with H11/c11 (smallest diametral clearance 80 um) with
-    # dynamic partners, which BALANCED resolves (50 um) and FAST does not (0.4 mm, and its
-    # partners are static); pinhole_station's H7/g6 and H8/f7 fits are below BALANCED's
-    # resolution: PyBullet's default there.
+    # dynamic partners, at least BALANCED's interference resolution (50 um; FAST: 0.4 mm, and
+    # its partners are static); pinhole_station's H7/g6 and H8/f7 fits are below it:
+    # PyBullet's default there.
     plan, product, geo = plan_for("gear_unit")
     k = plan.step("collar").index
     scene = select_scene(plan, k, product, geo, BALANCED)
