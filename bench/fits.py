@@ -31,12 +31,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-FITS: tuple[tuple[float, float], ...] = ((6e-3, 5e-6), (20e-3, 5e-6), (8e-3, 10e-6),
-                                         (12e-3, 25e-6), (20e-3, 50e-6))
+FITS: tuple[tuple[float, float], ...] = ((6e-3, 5e-6), (8e-3, 10e-6), (12e-3, 25e-6),
+                                         (20e-3, 50e-6))
 """(pin diameter, diametral clearance) of the benchmarked fits, m."""
 
-QUICK_FITS: tuple[tuple[float, float], ...] = ((6e-3, 5e-6), (20e-3, 50e-6))
-"""The fits ``asmplan bench --quick`` runs (the smallest clearance and the largest pin)."""
+QUICK_FITS: tuple[tuple[float, float], ...] = ((6e-3, 5e-6),)
+"""The fit ``asmplan bench --quick`` runs (the smallest clearance), at BALANCED only, against
+capture geometry (no reference run)."""
 
 CASES: tuple[str, ...] = ("aligned", "off", "inside")
 HOLE_DEPTH_FACTOR = 1.5
@@ -179,5 +180,178 @@ def run_fit(diameter_m: float, clearance_m: float, fidelities: Sequence[Any],
     return out
 
 
-__all__ = ["CASES", "FITS", "QUICK_FITS", "FitRun", "case_lateral_m", "expected_verdict",
-           "product_yaml", "run_fit"]
+REFERENCE_DT_S = 1.0 / 8000.0
+"""Time step of the fits' converged reference (ACCURATE settings otherwise): 8x BALANCED's,
+2x ACCURATE's; ACCURATE agreeing with it is the convergence check (the accuracy section's
+1/16000 s costs ~60-120 s per step of these products)."""
+
+
+def fits_reference_fidelity() -> Any:
+    """ACCURATE at :data:`REFERENCE_DT_S` (record interval kept at 4 ms)."""
+    import dataclasses
+
+    from asmplan.sim.fidelity import ACCURATE
+
+    return dataclasses.replace(ACCURATE, name=f"reference (1/{round(1 / REFERENCE_DT_S)} s)",
+                               dt_s=REFERENCE_DT_S,
+                               record_every_steps=max(1, round(0.004 / REFERENCE_DT_S)))
+
+
+@dataclass(frozen=True)
+class SeedJob:
+    """The seed workstation's whole job (``asmplan run``, report included) at one preset."""
+
+    fidelity: str
+    exit_code: int
+    wall_s: float
+    stages_s: dict[str, float]
+    steps: tuple[tuple[str, str, float, float], ...]
+    """(part, verdict, depth m, wall s of its simulation) per simulated step."""
+    warnings: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class FitsResult:
+    """Everything the fits section measured."""
+
+    runs: tuple[FitRun, ...]
+    seed: tuple[SeedJob, ...]
+    figures: tuple[Any, ...]
+
+
+def run_seed_job(fidelity: str, report: bool = True) -> SeedJob:
+    """``asmplan run`` (the bundled seed workstation) at ``fidelity`` in a subprocess, as a
+    user runs it (``-j`` default: one process per core), timed from outside."""
+    import json
+    import re
+    import subprocess
+    import sys
+
+    with tempfile.TemporaryDirectory(prefix="asmplan-bench-seedjob-") as tmp:
+        out = Path(tmp) / "out"
+        cmd = [sys.executable, "-m", "asmplan", "run", "--fidelity", fidelity, "-o", str(out)]
+        if not report:
+            cmd.append("--no-report")
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        steps: list[tuple[str, str, float, float]] = []
+        stages: dict[str, float] = {}
+        warnings: tuple[str, ...] = ()
+        res_path = out / "results.json"
+        if res_path.is_file():
+            doc = json.loads(res_path.read_text())
+            for st in doc.get("steps", []):
+                o = st.get("outcome")
+                if not o:
+                    continue
+                fails = o.get("failures") or []
+                verdict = "inserted" if o.get("success") else (fails[0]["code"] if fails else "failed")
+                steps.append((st.get("part", "?"), verdict,
+                              float(o.get("final_axial_error_m", float("nan"))), float("nan")))
+            warnings = tuple(w for w in doc.get("warnings", []) if "resolv" in w)
+        # "results and report in out/ (sequence 1.2 s, plan 2.2 s, simulate 37.3 s, report 12.7 s)"
+        for name, value in re.findall(r"(sequence|plan|simulate|report) ([0-9.]+) s", proc.stdout):
+            stages[name] = float(value)
+    return SeedJob(fidelity, proc.returncode, wall, stages, tuple(steps), warnings)
+
+
+def _figures(runs: Sequence[FitRun], reference: dict[tuple[float, float, str], FitRun]
+             ) -> list[Any]:
+    """``fit_verdict_mismatch`` per run: 1 when its verdict differs from the reference's or
+    from capture geometry's; asserted where the fit is at or above the preset's resolution."""
+    from asmplan.sim.fidelity import PRESETS
+
+    from .suite import AccuracyFigure
+
+    out = []
+    for r in runs:
+        ref = reference.get((r.diameter_m, r.clearance_m, r.case))
+        fid = PRESETS.get(r.fidelity)
+        if fid is None:
+            continue
+        expect = expected_verdict(r.case)
+        wrong = r.verdict != expect or (ref is not None and r.verdict != ref.verdict)
+        resolvable = r.clearance_m >= fid.min_resolvable_clearance_m - 1e-12
+        note = (f"{r.verdict}, depth {r.depth_m * 1e3:.3f} mm; geometry: {expect}"
+                + ("" if ref is None else f"; reference: {ref.verdict}, "
+                   f"{ref.depth_m * 1e3:.3f} mm")
+                + ("" if resolvable else f"; below the preset's resolution "
+                   f"({fid.min_resolvable_clearance_m * 1e3:.3f} mm)"))
+        out.append(AccuracyFigure(
+            r.fidelity, f"fit d {r.diameter_m * 1e3:g} mm, c {r.clearance_m * 1e6:g} um, {r.case} "
+            f"(e = {r.lateral_m * 1e6:g} um)", "fit_verdict_mismatch", float(wrong), "", r.wall_s,
+            resolvable, note))
+    return out
+
+
+def run_fits(fits: Sequence[tuple[float, float]] = FITS,
+             presets: Sequence[str] = ("fast", "balanced", "accurate"), *,
+             reference: bool = True, seed_job: bool = True,
+             log: Callable[[str], None] | None = None) -> FitsResult:
+    """The fits section: every fit of ``fits`` at every preset (and the reference), every
+    case; then the seed workstation's whole job at BALANCED (with the report)."""
+    from asmplan.sim.fidelity import preset
+
+    fids = [preset(p) for p in presets]
+    if reference:
+        fids.append(fits_reference_fidelity())
+    runs: list[FitRun] = []
+    for d, c in fits:
+        runs.extend(run_fit(d, c, fids, CASES, log=log))
+    ref = {(r.diameter_m, r.clearance_m, r.case): r for r in runs
+           if r.fidelity.startswith("reference")}
+    seed = ()
+    if seed_job:
+        say = log or (lambda _s: None)
+        seed = (run_seed_job("balanced"),)
+        say(f"seed workstation at balanced with the report: {seed[0].wall_s:.1f} s")
+    return FitsResult(tuple(runs), seed, tuple(_figures(runs, ref)))
+
+
+def format_fits(res: FitsResult) -> str:
+    """Markdown tables: per fit and case, verdict / depth / wall time per fidelity; the seed."""
+    fids = list(dict.fromkeys(r.fidelity for r in res.runs))
+    head = ("| pin d | c (diam.) | case (e) | geometry | "
+            + " | ".join(fids) + " |")
+    rows = [head, "| ---: | ---: | --- | --- | " + " | ".join("---" for _ in fids) + " |"]
+    keys = list(dict.fromkeys((r.diameter_m, r.clearance_m, r.case) for r in res.runs))
+    by = {(r.diameter_m, r.clearance_m, r.case, r.fidelity): r for r in res.runs}
+    for d, c, case in keys:
+        cells = []
+        for f in fids:
+            r = by.get((d, c, case, f))
+            cells.append("-" if r is None else
+                         f"{r.verdict} {r.depth_m * 1e3:.3f} mm, {r.wall_s:.1f} s")
+        e = case_lateral_m(case, c)
+        rows.append(f"| {d * 1e3:g} mm | {c * 1e6:g} um | {case} ({e * 1e6:g} um) | "
+                    f"{expected_verdict(case)} | " + " | ".join(cells) + " |")
+    out = ["Each cell: verdict, insertion depth reached, wall time of the step's simulation "
+           "(scene build included; the plan is made once per fit).", "", *rows, ""]
+    wrong = [f for f in res.figures if f.asserted and f.value]
+    out.append(f"Verdicts differing from geometry or the reference where the preset resolves the "
+               f"fit: {len(wrong)}" + ("" if not wrong else ": " + "; ".join(
+                   f"{f.preset} {f.scenario}: {f.note}" for f in wrong)))
+    out.append("")
+    cost = {}
+    for f in fids:
+        walls = [r.wall_s for r in res.runs if r.fidelity == f]
+        if walls:
+            import statistics
+
+            cost[f] = statistics.median(walls)
+    out.append("Median wall time per step: " + ", ".join(f"{k} {v:.1f} s" for k, v in cost.items())
+               + ".")
+    out.append("")
+    for job in res.seed:
+        out.append(f"Seed workstation, `asmplan run --fidelity {job.fidelity}` with the report: "
+                   f"exit {job.exit_code}, {job.wall_s:.1f} s wall (stages: "
+                   + ", ".join(f"{k} {v:.1f} s" for k, v in job.stages_s.items()) + "); "
+                   + "; ".join(f"{p}: {v} (axial error {e * 1e3:.3f} mm)" for p, v, e, _ in job.steps)
+                   + f"; resolution warnings: {len(job.warnings)}.")
+    return "\n".join(out) + "\n"
+
+
+__all__ = ["CASES", "FITS", "QUICK_FITS", "REFERENCE_DT_S", "FitRun", "FitsResult", "SeedJob",
+           "case_lateral_m", "expected_verdict", "fits_reference_fidelity", "format_fits",
+           "product_yaml", "run_fit", "run_fits", "run_seed_job"]

@@ -117,6 +117,10 @@ def _bounds() -> tuple[Bound, ...]:
                          "c >= 0.05 mm at 5 deg (millimetre units; smaller tilts are reported, "
                          "not asserted: the solver's contact compliance, ~20 um across the "
                          "wedge, grows as 1 / sin t)"))
+        out.append(Bound("fit_verdict_mismatch", p, 0.0, "",
+                         "issue 17: a clearance fit at or above the preset's "
+                         "min_resolvable_clearance_m is judged as capture geometry and the "
+                         "reference judge it (bench/fits.py)"))
         out.append(Bound("rim_capture_mismatch", p, 0.0, "",
                          "capture boundary |e0| < c/2 + chamfer width: an unchamfered pin "
                          "0.5 mm off stays on the rim, 0.02 mm off goes in"))
@@ -1105,6 +1109,7 @@ class BenchReport:
     sweep: SweepResult | None = None
     read: ReadTiming | None = None
     cad_import: list[Any] | None = None
+    fits: Any | None = None
     regressions: list[Regression] = field(default_factory=list)
     started: str = ""
     wall_s: float = 0.0
@@ -1142,6 +1147,16 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
                     "cost = wall seconds per simulated second. Where PyBullet is behind, the "
                     "last column says so (docs/physics.md explains each).", "",
                     format_peers(rep.accuracy.peers, "balanced")]
+    if rep.fits is not None:
+        from .fits import format_fits
+
+        out += ["## Clearance fits (issue 17)", "",
+                "`bench/fits.py`: for each fit a generated product (a steel pin into a fixtured "
+                "steel block, both unchamfered) planned once, its insertion simulated through the "
+                "whole pipeline at each preset and at the reference (ACCURATE at 1/8000 s) with "
+                "a robot pose error e across the axis: on the axis and c/4 off (inside the "
+                "capture radius c/2: inserted) and c off (outside: stays on the rim).", "",
+                format_fits(rep.fits)]
     if rep.seed is not None:
         out += ["## The seed workstation end to end", "",
                 "`bench.suite.run_seed_timing()`: the bundled seed workstation (4 parts, 3 "

@@ -4,7 +4,8 @@ Full run (default): every section (accuracy at every preset, the seed workstatio
 at FAST, motion planning vs direct OMPL, scaling on generated products, scene culling, sweep
 throughput, reading a 2,000-part file); prints the tables and writes
 ``docs/benchmarks.md`` and ``docs/benchmarks.png`` (the accuracy-vs-cost plot beside it).
-``--quick`` (CI): the accuracy scenarios at FAST and BALANCED only, and nothing is written
+``--quick`` (CI): the accuracy scenarios at FAST and BALANCED and the 5 um clearance fit at
+BALANCED (bench/fits.py) only, and nothing is written
 unless ``--out`` is given.
 
 Exit codes: 0 every asserted accuracy figure is within its bound, 1 a figure regressed
@@ -31,8 +32,8 @@ from ..fileio import atomic_write_bytes, atomic_write_text
 CHECKOUT = Path(__file__).resolve().parents[2]
 """The source checkout this asmplan runs from (for a wheel: site-packages, without bench/)."""
 
-SECTIONS: tuple[str, ...] = ("accuracy", "seed", "planning", "arm", "scaling", "culling", "sweep",
-                            "read", "import")
+SECTIONS: tuple[str, ...] = ("accuracy", "fits", "seed", "planning", "arm", "scaling", "culling",
+                            "sweep", "read", "import")
 SCALING_SIZES: tuple[int, ...] = (5, 10, 20, 50, 100)
 
 
@@ -95,7 +96,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="Markdown file to write (default docs/benchmarks.md in a full run); the plot "
                         "goes beside it as .png")
     p.add_argument("--sections", type=_sections, default=None,
-                   help=f"comma-separated subset of {','.join(SECTIONS)} (default: all; quick: accuracy)")
+                   help=f"comma-separated subset of {','.join(SECTIONS)} "
+                        "(default: all; quick: accuracy,fits)")
     p.add_argument("--presets", type=_presets, default=None,
                    help="presets of the accuracy section (default: all; quick: fast,balanced)")
     p.add_argument("--sizes", type=_sizes, default=SCALING_SIZES,
@@ -111,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
               "are not installed; clone the repository and run `bash dev.sh bench`",
               file=sys.stderr)
         return 2
-    sections = args.sections or (("accuracy",) if args.quick else SECTIONS)
+    sections = args.sections or (("accuracy", "fits") if args.quick else SECTIONS)
     presets = args.presets or (("fast", "balanced") if args.quick else ("fast", "balanced", "accurate"))
     out = args.out if args.out is not None else (None if args.quick else Path("docs/benchmarks.md"))
     t_start = time.perf_counter()
@@ -135,6 +137,17 @@ def run(args: argparse.Namespace) -> int:
         if rep.accuracy.peers:
             show("PyBullet and MuJoCo side by side", b.format_peers(rep.accuracy.peers,
                                                                      "balanced"))
+    if "fits" in sections:
+        fits = importlib.import_module("bench.fits")
+        if args.quick:
+            log("fits: the 5 um fit at BALANCED against capture geometry")
+            rep.fits = fits.run_fits(fits.QUICK_FITS, ("balanced",), reference=False,
+                                     seed_job=False, log=log)
+        else:
+            log("fits: 5-50 um clearance fits at every preset and the reference; the seed job")
+            rep.fits = fits.run_fits(log=log)
+        rep.regressions.extend(b.check_bounds(rep.fits.figures))
+        show("Clearance fits", fits.format_fits(rep.fits))
     if "seed" in sections:
         log(f"seed workstation at FAST without the report, {b.SEED_RUNS} runs")
         rep.seed = b.run_seed_timing(log=log)
@@ -193,5 +206,6 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 1
     n = 0 if rep.accuracy is None else sum(1 for f in rep.accuracy.figures if f.asserted)
+    n += 0 if rep.fits is None else sum(1 for f in rep.fits.figures if f.asserted)
     log(f"done in {rep.wall_s:.0f} s" + (f"; {n} accuracy figures within their bounds" if n else ""))
     return 0
