@@ -351,3 +351,20 @@ def test_a_worker_that_dies_fails_its_step_with_the_reason(monkeypatch):
     assert by_part["part2"].success and by_part["part4"].success
     with pytest.raises(ValueError, match="workers: expected >= 1"):
         simulate_plan(plan, product, geo, FAST, workers=0)
+
+
+def test_an_insertion_faster_than_the_contact_distance_per_step_is_flagged():
+    # issue 17: BALANCED finds a rim before penetrating while the part advances less than its
+    # contact distance (25 um) per time step (sim/fidelity.py): the seed's 10 mm/s is 10 um
+    _, product, _ = plan_for("pinhole_station")
+    from asmplan.sim.simulate import insertion_speed_warnings
+
+    assert BALANCED.contact_distance_m == pytest.approx(25e-6)
+    assert insertion_speed_warnings(product, "part2", BALANCED) == ()
+    fast_feed = dataclasses.replace(product, process=dataclasses.replace(
+        product.process, insertion_speed_m_s=0.05))
+    (w,) = insertion_speed_warnings(fast_feed, "part2", BALANCED)
+    assert "50.0 mm/s" in w and "50.0 um per balanced time step" in w and "25.0 um" in w
+    # ACCURATE: 12.5 um per 1/4000 s step against its 10 um contact distance: flagged too
+    (w,) = insertion_speed_warnings(fast_feed, "part2", ACCURATE)
+    assert "12.5 um per accurate time step" in w and "10.0 um" in w
