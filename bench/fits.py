@@ -14,7 +14,13 @@ answer geometry gives:
     the pin displaced across the axis by ``c`` (twice the capture radius c/2 of an
     unchamfered pin in an unchamfered hole): stays on the rim (no capture), entered ~0;
 ``inside``
-    displaced by c/4 (inside the capture radius): inserted.
+    displaced by c/4 (inside the capture radius): inserted;
+``tilted``
+    tilted by :data:`TILT_DEG` about the pin's tip (the TCP tilted and displaced so that the
+    tip stays on the axis), held by a stiff robot: Whitney's two-point contact stops it at
+    l* = (D - d cos t) / sin t (:func:`bench.scenarios.whitney_jam_depth_m`): jammed.
+    Its verdict is asserted against the reference; its depth against Whitney is reported
+    (the jam depth at small tilts is issue 16's).
 
 Both features are unchamfered, so the capture boundary |e| < c/2 is the fit's own; with the
 0.5 mm chamfers of a real product it moves out by the chamfer widths and no longer tests the
@@ -24,12 +30,15 @@ insertion depth reached (engagement length minus the remaining axial error).
 
 from __future__ import annotations
 
+import math
 import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 FITS: tuple[tuple[float, float], ...] = ((6e-3, 5e-6), (8e-3, 10e-6), (12e-3, 25e-6),
                                          (20e-3, 50e-6))
@@ -39,7 +48,9 @@ QUICK_FITS: tuple[tuple[float, float], ...] = ((6e-3, 5e-6),)
 """The fit ``asmplan bench --quick`` runs (the smallest clearance), at BALANCED only, against
 capture geometry (no reference run)."""
 
-CASES: tuple[str, ...] = ("aligned", "off", "inside")
+CASES: tuple[str, ...] = ("aligned", "off", "inside", "tilted")
+TILT_DEG = 0.5
+"""Tilt of the ``tilted`` case, deg."""
 HOLE_DEPTH_FACTOR = 1.5
 """Hole depth / pin diameter (engaged length of the generated fits)."""
 
@@ -104,6 +115,8 @@ class FitRun:
     engagement_m: float
     wall_s: float
     reasons: tuple[str, ...] = ()
+    expected_depth_m: float = float("nan")
+    """Depth geometry gives: the engagement (inserted), 0 (rim) or Whitney's l* (jammed)."""
 
     @property
     def inserted(self) -> bool:
@@ -112,12 +125,13 @@ class FitRun:
 
 def expected_verdict(case: str) -> str:
     """The verdict capture geometry gives (unchamfered pin and hole, |e| vs c/2)."""
-    return "rim_stop" if case == "off" else "inserted"
+    return {"off": "rim_stop", "tilted": "jammed"}.get(case, "inserted")
 
 
 def case_lateral_m(case: str, clearance_m: float) -> float:
     """Lateral pose error of a case, m (see the module docstring)."""
-    return {"aligned": 0.0, "off": clearance_m, "inside": 0.25 * clearance_m}[case]
+    return {"aligned": 0.0, "off": clearance_m, "inside": 0.25 * clearance_m,
+            "tilted": 0.0}[case]
 
 
 def _verdict(outcome: Any) -> str:
@@ -150,6 +164,8 @@ def run_fit(diameter_m: float, clearance_m: float, fidelities: Sequence[Any],
     from asmplan.sim.pose_error import PoseError
     from asmplan.sim.simulate import simulate_plan
 
+    from .scenarios import whitney_jam_depth_m
+
     say = log or (lambda _s: None)
     with tempfile.TemporaryDirectory(prefix="asmplan-bench-fit-") as tmp:
         path = Path(tmp) / "fit.yaml"
@@ -161,19 +177,31 @@ def run_fit(diameter_m: float, clearance_m: float, fidelities: Sequence[Any],
                            f"planning failed: {planned.failure}")
     step = next(i for i, s in enumerate(planned.plan.steps) if s.kind == "insert")
     engagement = HOLE_DEPTH_FACTOR * diameter_m
+    # the tilted case turns the TCP about the pin's tip: the TCP's height above the tip when
+    # seated (the tip on the hole floor, 10 mm above the table: product_yaml's block)
+    traj = planned.plan.steps[step].trajectory
+    lower = next(ph for ph in traj.phases if ph.name == "lower")
+    k = int(np.searchsorted(traj.t_s, lower.t_end_s)) - 1
+    lever = float(traj.T_world_gripper[k][2, 3]) - 10e-3
+    t = math.radians(TILT_DEG)
     out = []
     for fid in fidelities:
         for case in cases:
             e = case_lateral_m(case, clearance_m)
+            err = (PoseError((-lever * math.sin(t), 0.0), (0.0, t)) if case == "tilted"
+                   else PoseError((e, 0.0), (0.0, 0.0)))
+            want = {"inserted": engagement, "rim_stop": 0.0,
+                    "jammed": whitney_jam_depth_m(clearance_m, t, diameter_m)}[
+                        expected_verdict(case)]
             t0 = time.perf_counter()
             res = simulate_plan(planned.plan, product, planned.geometry, fid, steps=[step],
-                                workers=1, pose_error=PoseError((e, 0.0), (0.0, 0.0)))
+                                workers=1, pose_error=err)
             wall = time.perf_counter() - t0
             sr = res.steps[0] if len(res.steps) == 1 else res.steps[step]
             o = sr.outcome
             depth = _depth_m(o, engagement)
             run = FitRun(diameter_m, clearance_m, case, fid.name, e, _verdict(o), depth,
-                         engagement, wall, tuple(o.reasons) if o is not None else ())
+                         engagement, wall, tuple(o.reasons) if o is not None else (), want)
             say(f"fit d {diameter_m * 1e3:g} mm c {clearance_m * 1e6:g} um {case} at "
                 f"{fid.name}: {run.verdict}, depth {depth * 1e3:.3f} mm, {wall:.1f} s")
             out.append(run)
@@ -273,7 +301,8 @@ def _figures(runs: Sequence[FitRun], reference: dict[tuple[float, float, str], F
         expect = expected_verdict(r.case)
         wrong = r.verdict != expect or (ref is not None and r.verdict != ref.verdict)
         resolvable = r.clearance_m >= fid.min_resolvable_clearance_m - 1e-12
-        note = (f"{r.verdict}, depth {r.depth_m * 1e3:.3f} mm; geometry: {expect}"
+        note = (f"{r.verdict}, depth {r.depth_m * 1e3:.3f} mm; geometry: {expect} "
+                f"{r.expected_depth_m * 1e3:.3f} mm"
                 + ("" if ref is None else f"; reference: {ref.verdict}, "
                    f"{ref.depth_m * 1e3:.3f} mm")
                 + ("" if resolvable else f"; below the preset's resolution "
@@ -324,8 +353,11 @@ def format_fits(res: FitsResult) -> str:
             cells.append("-" if r is None else
                          f"{r.verdict} {r.depth_m * 1e3:.3f} mm, {r.wall_s:.1f} s")
         e = case_lateral_m(case, c)
-        rows.append(f"| {d * 1e3:g} mm | {c * 1e6:g} um | {case} ({e * 1e6:g} um) | "
-                    f"{expected_verdict(case)} | " + " | ".join(cells) + " |")
+        first = next(r for r in res.runs if (r.diameter_m, r.clearance_m, r.case) == (d, c, case))
+        how = f"{TILT_DEG:g} deg" if case == "tilted" else f"e = {e * 1e6:g} um"
+        rows.append(f"| {d * 1e3:g} mm | {c * 1e6:g} um | {case} ({how}) | "
+                    f"{expected_verdict(case)} {first.expected_depth_m * 1e3:.3f} mm | "
+                    + " | ".join(cells) + " |")
     out = ["Each cell: verdict, insertion depth reached, wall time of the step's simulation "
            "(scene build included; the plan is made once per fit).", "", *rows, ""]
     wrong = [f for f in res.figures if f.asserted and f.value]

@@ -21,11 +21,11 @@ def test_min_resolvable_clearance_is_resolved(name):
     unchamfered 6 mm steel pin into a fixtured block): the step succeeds on the axis and
     c_d / 4 off it, and stops on the rim c_d off it (twice the capture radius c_d / 2), as
     capture geometry says (see sim/fidelity.py)."""
-    from bench.fits import CASES, expected_verdict, run_fit
+    from bench.fits import expected_verdict, run_fit
 
     fid = preset(name)
     c = fid.min_resolvable_clearance_m
-    runs = run_fit(6e-3, c, [fid], CASES)
+    runs = run_fit(6e-3, c, [fid], ("aligned", "off", "inside"))
     for r in runs:
         assert r.verdict == expected_verdict(r.case), (r.case, r.reasons)
         if r.inserted:
