@@ -180,6 +180,7 @@ def run_fit(diameter_m: float, clearance_m: float, fidelities: Sequence[Any],
     # the tilted case turns the TCP about the pin's tip: the TCP's height above the tip when
     # seated (the tip on the hole floor, 10 mm above the table: product_yaml's block)
     traj = planned.plan.steps[step].trajectory
+    assert traj is not None
     lower = next(ph for ph in traj.phases if ph.name == "lower")
     k = int(np.searchsorted(traj.t_s, lower.t_end_s)) - 1
     lever = float(traj.T_world_gripper[k][2, 3]) - 10e-3
@@ -330,11 +331,12 @@ def run_fits(fits: Sequence[tuple[float, float]] = FITS,
         runs.extend(run_fit(d, c, fids, CASES, log=log))
     ref = {(r.diameter_m, r.clearance_m, r.case): r for r in runs
            if r.fidelity.startswith("reference")}
-    seed = ()
+    seed: tuple[SeedJob, ...] = ()
     if seed_job:
         say = log or (lambda _s: None)
-        seed = (run_seed_job("balanced"),)
-        say(f"seed workstation at balanced with the report: {seed[0].wall_s:.1f} s")
+        job = run_seed_job("balanced")
+        seed = (job,)
+        say(f"seed workstation at balanced with the report: {job.wall_s:.1f} s")
     return FitsResult(tuple(runs), seed, tuple(_figures(runs, ref)))
 
 

@@ -314,6 +314,7 @@ def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_
                              inertia_kgm2=cylinder_inertia(mass, r_pin, s.pin_length_m),
                              friction=s.pin_friction, name="pin")
         T_grasp = pose((0.0, 0.0, T_pin[2, 3] + s.grasp_above_centre_m))
+        gripper: Gripper
         if s.coupled_gripper:
             gripper = CoupledGripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004,
                                      carried_mass_kg=mass)
