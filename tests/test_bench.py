@@ -104,3 +104,40 @@ def test_seed_section_times_the_workstation_through_the_cli_and_the_library() ->
     text = b.format_markdown(b.BenchReport(quick=False, machine={}, seed=timing))
     assert "## The seed workstation end to end" in text
     assert "Every run succeeded." in text
+
+
+def test_fits_section_counts_a_verdict_against_geometry_and_the_reference() -> None:
+    # bench/fits.py: a run is wrong when its verdict differs from capture geometry's or from
+    # the reference's; asserted only where the preset resolves the fit; the table shows both
+    from bench import fits as f
+
+    def run(fid: str, case: str, verdict: str, c: float = 5e-6) -> f.FitRun:
+        return f.FitRun(6e-3, c, case, fid, f.case_lateral_m(case, c), verdict, 0.0, 9e-3, 1.0,
+                        (), 0.0)
+
+    ref_name = f.fits_reference_fidelity().name
+    runs = [run("balanced", "off", "rim_stop"), run("balanced", "inside", "rim_stop"),
+            run("fast", "off", "inserted"), run(ref_name, "off", "rim_stop"),
+            run(ref_name, "inside", "inserted")]
+    ref = {(r.diameter_m, r.clearance_m, r.case): r for r in runs if r.fidelity == ref_name}
+    figs = {(x.preset, x.scenario.split(", ")[-1].split(" ")[0]): x for x in f._figures(runs, ref)}
+    assert figs[("balanced", "off")].value == 0.0 and figs[("balanced", "off")].asserted
+    assert figs[("balanced", "inside")].value == 1.0 and figs[("balanced", "inside")].asserted
+    assert figs[("fast", "off")].value == 1.0 and not figs[("fast", "off")].asserted  # 5 um < 2 mm
+    regs = b.check_bounds(list(figs.values()))
+    assert [r.figure.scenario for r in regs] == [figs[("balanced", "inside")].scenario]
+    text = f.format_fits(f.FitsResult(tuple(runs), (), tuple(figs.values())))
+    assert "| 6 mm | 5 um | off (e = 5 um) | rim_stop" in text
+    assert "Verdicts differing from geometry or the reference where the preset resolves the fit: 1" in text
+    # the generated product is valid input
+    import tempfile
+    from pathlib import Path
+
+    from asmplan.knowledge.loader import load_product
+
+    with tempfile.TemporaryDirectory() as tmp:
+        p = Path(tmp) / "fit.yaml"
+        p.write_text(f.product_yaml(8e-3, 10e-6))
+        product = load_product(p)
+    (mate,) = product.mates
+    assert mate.clearance_min_m == pytest.approx(10e-6) and mate.clearance_max_m == pytest.approx(10e-6)
