@@ -51,8 +51,8 @@ SEED_RUNS = 9
 CULLING_SIZE = 50
 SCALING_FIT_MM = 0.5
 """Diametral clearance of every pin of the generated scaling products, mm: above FAST's
-``min_resolvable_clearance_m`` (0.4 mm), so that a failed step is physics, not resolution
-(the generator's default H7/g6, 4-24 um, is below every preset's resolution)."""
+``interference_resolution_m`` (0.4 mm; its clearance-fit resolution is 2 mm, so these runs
+warn at FAST; the generator's default H7/g6, 4-24 um, is within BALANCED's 4 um)."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1183,7 +1183,8 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
     if rep.scaling is not None:
         out += ["## Scaling on generated products", "",
                 f"`asmplan.knowledge.generator.generate_product(n, seed=0, fit={SCALING_FIT_MM})` "
-                f"(every pin {SCALING_FIT_MM} mm diametral clearance, which FAST resolves), written "
+                f"(every pin {SCALING_FIT_MM} mm diametral clearance, above FAST's interference "
+                "resolution), written "
                 "to YAML, then the whole job (`asmplan.pipeline.run_product` at FAST, the preset the "
                 "scaling targets name, each step simulated in a worker process while the next are "
                 "planned, and `write_outputs` with the HTML report), one run per size. validation = "
