@@ -48,8 +48,9 @@ def test_the_unperturbed_sample_equals_run_byte_for_byte() -> None:
     "deg (slip 5.9-9.4 mm, 134-168 N; two-point contacts on the chamfer, normal 45 deg, and on "
     "the bore), where a geometric jam needs a tilt near c/L = 17 um / 1 mm ~ 1 deg; ACCURATE "
     "inserts it (asmplan run peg_in_hole --pose-error 0.02,0 --fidelity accurate: ok). "
-    "Suspected: a chamfer contact kept across the fit's 8.5 um radial gap (BALANCED's contact "
-    "distance is 25 um, ACCURATE's 10 um); 0.05 mm along -y goes in"))
+    "Cause measured: a chamfer contact kept across the fit's 8.5 um radial gap: BALANCED with "
+    "its contact distance (25 um) lowered to 8 um still jams, to 4 um inserts it; "
+    "0.05 mm along -y goes in"))
 def test_the_bundled_peg_goes_in_at_small_pose_errors() -> None:
     """Issue 17's done-when: the bundled peg (H7/g6, 0.5 mm chamfer) swept with small robot
     errors at BALANCED succeeds at every sample; the capture boundary (half the mean clearance
