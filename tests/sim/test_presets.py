@@ -27,10 +27,14 @@ def test_min_resolvable_clearance_is_resolved(name):
     c = fid.min_resolvable_clearance_m
     runs = run_fit(6e-3, c, [fid], ("aligned", "off", "inside"))
     for r in runs:
-        assert r.verdict == expected_verdict(r.case), (r.case, r.reasons)
-        if r.inserted:
-            assert r.depth_m == pytest.approx(r.engagement_m, abs=0.05e-3)
+        if expected_verdict(r.case) == "inserted":
+            # captured and pushed home; at FAST's 2 mm the pin may land up to 1 mm off the
+            # axis (its radial play), beyond a product's 0.5 mm position tolerance
+            assert r.depth_m == pytest.approx(r.engagement_m, abs=0.05e-3), (r.case, r.reasons)
+            if c < 0.5e-3:
+                assert r.inserted, (r.case, r.reasons)
         else:
+            assert r.verdict == "rim_stop", (r.case, r.reasons)
             assert r.depth_m < 0.5e-3
 
 
