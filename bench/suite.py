@@ -83,7 +83,7 @@ def _bounds() -> tuple[Bound, ...]:
                          "(docs/physics.md); 3 % = 5 bisection steps of 0.6 %, well inside the "
                          "10 % the slip tests allow"))
         out.append(Bound("insertion_outcome_mismatch", p, 0.0, "",
-                         "a fit at or above the preset's min_resolvable_clearance_m must be "
+                         "a fit at or above the preset's interference_resolution_m must be "
                          "judged as the reference judges it (sim/fidelity.py)"))
     out += [
         Bound("insertion_depth_error_m", "fast", 0.6e-3, "m",
@@ -297,9 +297,10 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
                                           time.perf_counter() - t0, note=what))
         for c, ref in zip(cases, reference, strict=True):
             run = pin_insertion(fid, c)
-            resolvable = 2 * abs(c) >= fid.min_resolvable_clearance_m - 1e-12
-            note = "" if resolvable else (f"below the preset's resolution "
-                                          f"({fid.min_resolvable_clearance_m * 1e3:.2f} mm diametral)")
+            # the fit/interference scene measures the interference resolution (sim/fidelity.py)
+            resolvable = 2 * abs(c) >= fid.interference_resolution_m - 1e-12
+            note = "" if resolvable else (f"below the preset's interference resolution "
+                                          f"({fid.interference_resolution_m * 1e3:.2f} mm diametral)")
             scen = _scenario_name(c)
             verdict = f"{'inserted' if run.success else 'not inserted'} (reference: " \
                       f"{'inserted' if ref.success else 'not inserted'})"
