@@ -573,18 +573,27 @@ def test_a_pose_sweep_of_a_real_step_fails_beyond_clearance_plus_chamfer(loose_p
     # on the top face (measured sweep over 24 offsets in docs/sweep.md: x50 = 0.53 mm; the
     # response is not perfectly monotonic: 0.20 mm along +x jams while 0.15 and 0.25 mm pass)
     offsets = (0.3e-3, 1.2e-3)
-    samples = [sw.SampleParams(i, 0, base.clearance_m, base.friction, {"peg": sw.PoseError((e, 0.0))})
-               for i, e in enumerate(offsets)]
+    lateral = [(offsets[0], 0.0), (0.0, offsets[0]), (offsets[1], 0.0)]
+    samples = [sw.SampleParams(i, 0, base.clearance_m, base.friction, {"peg": sw.PoseError(e)})
+               for i, e in enumerate(lateral)]
     results = sw.run_sweep(functools.partial(sw.simulate_sample, ps), samples, max_workers=2)
-    inside, beyond = (r.value["steps"]["peg"] for r in results)
+    inside_x, inside_y, beyond = (r.value["steps"]["peg"] for r in results)
     assert offsets[0] < capture_m - 0.25e-3 and offsets[1] > capture_m + 0.5e-3
-    assert inside["success"] is True, inside["reasons"]
-    assert inside["outcome"]["max_slip_m"] == pytest.approx(offsets[0], rel=0.5)  # absorbed in the grip
+    for inside in (inside_x, inside_y):
+        assert inside["success"] is True, inside["reasons"]
+        assert inside["outcome"]["final_position_error_m"] < 0.5 * ps.product.mates[0].clearance_mean_m + 0.05e-3
+    # The parallel gripper absorbs the offset in the grip: across its closing axis the peg slides
+    # in the pads (slip ~ offset); along it the force-controlled jaws travel with the peg (no slip;
+    # docs/physics.md, "Holding along the closing axis"). Which insertion-frame axis is which
+    # depends on the planned grasp, so one of the two offsets must show each.
+    slips = sorted(inside["outcome"]["max_slip_m"] for inside in (inside_x, inside_y))
+    assert slips[0] < 0.01e-3
+    assert slips[1] == pytest.approx(offsets[0], rel=0.5)
     assert beyond["success"] is False
     assert "slip" in beyond["failed_criteria"]
-    assert "wall_time_s" not in inside["outcome"]
+    assert "wall_time_s" not in inside_x["outcome"]
     summary = sw.summarize(samples, results, ("pose",))
-    assert (summary.step("peg").n, summary.step("peg").successes) == (2, 1)
+    assert (summary.step("peg").n, summary.step("peg").successes) == (3, 2)
 
 
 @pytest.mark.slow
