@@ -340,6 +340,8 @@ def run_fits(fits: Sequence[tuple[float, float]] = FITS,
     return FitsResult(tuple(runs), seed, tuple(_figures(runs, ref)))
 
 
+# Complexity above C (radon): a report: the verdict table (one cell per fit, case and fidelity),
+# the differing verdicts, the median costs and the seed runs, each an optional part.
 def format_fits(res: FitsResult) -> str:
     """Markdown tables: per fit and case, verdict / depth / wall time per fidelity; the seed."""
     fids = list(dict.fromkeys(r.fidelity for r in res.runs))

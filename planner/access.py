@@ -178,6 +178,8 @@ class GripperAccess:
             self._cache[key] = hit
         return hit
 
+    # Complexity above C (radon): every grasp candidate passes the same screens in order (below the
+    # table, its poses, the insertion and retreat sweeps, minimality), each a branch that drops it.
     def _compute(self, part: str, u: np.ndarray, pre_distance_m: float,
                  required: frozenset[str]) -> Access:
         from .scene import GRIPPER_CLOSED, GRIPPER_OPEN, GRIPPER_SPAN, TABLE

@@ -757,6 +757,8 @@ class ArmPlanner:
             f"{self.arm.reach_m * 1e3:.0f} mm)", T_world_tcp)
 
     # -- a whole step -----------------------------------------------------------------------
+    # Complexity above C (radon): every IK branch (and the turned tool) is tried in order through
+    # IK along the path, the OMPL joint-space transfer fallback, collision checks and retiming.
     def plan_step(self, index: int, part: str, traj: Trajectory, T_tcp_part: np.ndarray,
                   obstacles: Sequence[str], T_start: np.ndarray, T_final: np.ndarray,
                   tool_radius_m: float, max_tcp_speed_m_s: float = math.inf,
@@ -1135,6 +1137,8 @@ class ArmPlanner:
                    else self.gripper_closed)
         return _Phase(name, carried, gripper)
 
+    # Complexity above C (radon): conservative advancement over every stretch of the path, per pair
+    # of bodies, with the carried part and the gripper's opening set per phase.
     def _check_path(self, index: int, part: str, Q: np.ndarray, phase_idx: np.ndarray,
                     names: list[str], T_tcp_part: np.ndarray, obstacles: Sequence[str],
                     T_start: np.ndarray, T_final: np.ndarray, tool_radius_m: float,
