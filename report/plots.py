@@ -270,7 +270,7 @@ def sweep_step_plot(step: Any, capture_m: float | None, path: str | Path) -> Pat
         ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7, loc="best")
-    fig.suptitle(f"step {step.step}: {step.successes}/{step.n} succeeded "
+    fig.suptitle(f"{step.label}: {step.successes}/{step.n} succeeded "
                  f"({100 * step.rate:.1f} %, 95 % CI {100 * step.ci_low:.1f}-"
                  f"{100 * step.ci_high:.1f} %)",
                  fontsize=10)
