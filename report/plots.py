@@ -34,9 +34,24 @@ def _figure(width_in: float = 7.5, height_in: float = 3.2):
     return fig, fig.add_subplot(1, 1, 1)
 
 
-def _save(fig, path: str | Path) -> Path:
+TIME_PLOT_MARGINS = {"left": 0.08, "right": 0.97, "bottom": 0.14, "top": 0.84}
+"""Fixed margins (figure fractions) of the per-step time plots (7.5 x 3.2 in): room for the
+y label, the x label, the title and the phase names above the axes. Fixed instead of
+``tight_layout``, which lays the text out once more per figure (about a third of a plot's
+cost, measured: 5 x (clamp + insertion plot) 1.14 -> 0.70 s CPU)."""
+
+
+def _save(fig, path: str | Path, margins: dict[str, float] | None = None) -> Path:
+    """PNG of ``fig`` at ``path``; with ``margins`` (``subplots_adjust`` arguments) instead of
+    a tight layout. A twin y axis on the right gets the same room as the left one."""
     buf = io.BytesIO()
-    fig.tight_layout()
+    if margins is None:
+        fig.tight_layout()
+    else:
+        m = dict(margins)
+        if len(fig.axes) > 1:
+            m["right"] = 1.0 - m["left"]
+        fig.subplots_adjust(**m)
     fig.savefig(buf, format="png", metadata={"Software": None})
     return atomic_write_bytes(path, buf.getvalue())
 
@@ -102,7 +117,7 @@ def clamp_force_plot(record: StepRecord, path: str | Path, *, title: str = "",
     ax.legend(loc="lower center", fontsize=7, ncol=2, framealpha=0.9)
     if title:
         ax.set_title(title, fontsize=9, pad=14)
-    return _save(fig, path)
+    return _save(fig, path, TIME_PLOT_MARGINS)
 
 
 def meaningful_depth_mm(record: StepRecord, target_depth_m: float, near_m: float = 5e-3
@@ -151,7 +166,7 @@ def insertion_plot(record: StepRecord, path: str | Path, *, target_depth_m: floa
               framealpha=0.9)
     if title:
         ax.set_title(title, fontsize=9, pad=14)
-    return _save(fig, path)
+    return _save(fig, path, TIME_PLOT_MARGINS)
 
 
 def precedence_graph_plot(graph: Any, path: str | Path, *, order: Sequence[str] = ()) -> Path:
@@ -270,7 +285,7 @@ def sweep_step_plot(step: Any, capture_m: float | None, path: str | Path) -> Pat
         ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7, loc="best")
-    fig.suptitle(f"step {step.step}: {step.successes}/{step.n} succeeded "
+    fig.suptitle(f"{step.label}: {step.successes}/{step.n} succeeded "
                  f"({100 * step.rate:.1f} %, 95 % CI {100 * step.ci_low:.1f}-"
                  f"{100 * step.ci_high:.1f} %)",
                  fontsize=10)

@@ -26,6 +26,7 @@ import io
 import os
 import sys
 import threading
+from collections import OrderedDict
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -153,6 +154,7 @@ class _RendererCache:
     def __init__(self) -> None:
         self.lock = threading.RLock()
         self._renderers: dict[tuple[int, int], Any] = {}
+        self._meshes: dict[tuple[int, int], OrderedDict[tuple[Any, ...], tuple[Any, Any]]] = {}
         self._inherited: list[dict[tuple[int, int], Any]] = []
         self._pyrender: Any = None
         self._started_threads: str | None = None  # LP_NUM_THREADS when the first context began
@@ -180,9 +182,29 @@ class _RendererCache:
             self._renderers[key] = renderer
         return pyrender, renderer
 
+    def mesh(self, pyrender: Any, size: tuple[int, int], item: SceneItem) -> Any:
+        """The ``pyrender.Mesh`` of ``item`` for the renderer of ``size``, reused while the
+        same trimesh (same object, same content hash) is drawn in the same colour: a mesh
+        drawn in consecutive renders (the still parts of an animation, the gripper, the
+        table) keeps its GL buffers instead of being rebuilt and uploaded each time. Call
+        with ``self.lock`` held."""
+        cache = self._meshes.setdefault(size, OrderedDict())
+        key = (id(item.mesh), hash(item.mesh), item.color_rgba, item.name)
+        hit = cache.get(key)
+        if hit is not None and hit[0] is item.mesh:
+            cache.move_to_end(key)
+            return hit[1]
+        mesh = _pyrender_mesh(pyrender, item)
+        cache[key] = (item.mesh, mesh)  # the trimesh is kept so that its id stays its own
+        while len(cache) > MESH_CACHE_SIZE:
+            cache.popitem(last=False)
+        return mesh
+
     def _after_fork_in_child(self) -> None:
         self.lock = threading.RLock()  # the parent's lock may have been held by another thread
         self._inherited.append(self._renderers)  # kept referenced: freeing them could hang
+        self._inherited.append(self._meshes)
+        self._meshes = {}
         self._renderers = {}
         if self._started_threads != "0":
             self._forked_from_threaded = True
@@ -190,6 +212,7 @@ class _RendererCache:
     def clear(self) -> None:
         with self.lock:
             renderers, self._renderers = self._renderers, {}
+            self._meshes = {}
             for renderer in renderers.values():
                 with contextlib.suppress(Exception):
                     renderer.delete()
@@ -197,6 +220,9 @@ class _RendererCache:
     def __len__(self) -> int:
         return len(self._renderers)
 
+
+MESH_CACHE_SIZE = 256
+"""Display meshes kept per renderer size for reuse (see :meth:`_RendererCache.mesh`)."""
 
 _RENDERER_CACHE = _RendererCache()
 atexit.register(_RENDERER_CACHE.clear)
@@ -246,8 +272,9 @@ def _build_scene(
     scene = pyrender.Scene(
         bg_color=[float(c) for c in background], ambient_light=[float(c) for c in _AMBIENT_RGB]
     )
+    size = (camera.width_px, camera.height_px)
     nodes = [
-        scene.add(_pyrender_mesh(pyrender, item), pose=np.array(item.T_world_item))
+        scene.add(_RENDERER_CACHE.mesh(pyrender, size, item), pose=np.array(item.T_world_item))
         for item in items
     ]
     pose = camera.T_world_camera

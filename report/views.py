@@ -36,6 +36,11 @@ PATH_RGBA = (0.10, 0.35, 0.85, 1.0)  # the planned path of the part's centre (tr
 INSERT_PATH_RGBA = (0.85, 0.10, 0.10, 1.0)  # the part's centre while it is lowered/inserted
 GHOST_ALPHA = 0.35
 ANIMATION_FRAMES = 12
+"""Most frames of a step's animation (see :func:`animation_ticks`)."""
+ANIMATION_STILL_M = 0.5e-3
+"""A candidate frame is left out when neither the part nor the gripper moved more than this
+since the frame before it and the gripper's opening is the same (it would show the same
+picture under another phase name)."""
 ANIMATION_SIZE_PX = (320, 240)
 STORY_SIZE_PX = (320, 240)
 VIEW_DIRECTION = (1.0, -1.3, 0.9)
@@ -260,15 +265,16 @@ class Views:
 
     def animation(self, plan: Plan, step: Step, record: StepRecord, path: Path,
                   frames: int = ANIMATION_FRAMES) -> Path:
-        """An animated PNG of the simulated step: ``frames`` evenly spaced ticks of the record
-        (part and gripper as simulated), one fixed camera, the part labelled."""
+        """An animated PNG of the simulated step at the ticks of :func:`animation_ticks` (at
+        most ``frames``): part and gripper as simulated, one fixed camera, the part labelled,
+        each frame captioned with its time and phase."""
         from PIL import Image
 
         w, h = ANIMATION_SIZE_PX
         static = [*self.placed_items(plan, step.index), *self.waiting_items(plan, step.index)]
-        ticks = np.unique(np.linspace(0, record.n_ticks - 1, frames).round().astype(int))
         open_ids = [i for i, n in enumerate(record.phase_names) if n in ("approach", "retreat",
                                                                           "release")]
+        ticks = animation_ticks(record, open_ids, frames)
         grippers = {}
         if step.grasp is not None:
             for opening in ("open", "closed"):
@@ -302,7 +308,7 @@ class Views:
             images.append(Image.fromarray(image).quantize(colors=256,
                                                           method=Image.Quantize.FASTOCTREE,
                                                           dither=Image.Dither.NONE))
-        durations = [250] * (len(images) - 1) + [1200]
+        durations = [400] * (len(images) - 1) + [1200]  # 8 frames or so: 0.4 s each
         buf = io.BytesIO()
         images[0].save(buf, format="PNG", save_all=True, append_images=images[1:],
                        duration=durations, loop=0, compress_level=6)
@@ -327,6 +333,55 @@ class Views:
             save_png(image, folder / name)
             out.append((step.index, step.part, name))
         return out
+
+
+def animation_ticks(record: StepRecord, open_phases: Sequence[int],
+                    frames: int = ANIMATION_FRAMES) -> np.ndarray:
+    """The record ticks an animation shows: the start of every phase, the middle of each phase
+    longer than a fifth of the step (the transport, the insertion) and the last tick; a
+    candidate that shows the same picture as the frame before it (part and gripper within
+    :data:`ANIMATION_STILL_M`, same opening; e.g. "hold" after "clamp") is left out. Every
+    phase in which something moves is thus shown at its start, which evenly spaced ticks do
+    not promise (a short clamp or release falls between them), with fewer frames to render.
+    More than ``frames`` candidates are thinned evenly.
+
+    Parameters
+    ----------
+    record : StepRecord
+    open_phases : indices of phases in which the gripper is drawn open.
+    frames : most frames.
+
+    Returns
+    -------
+    (K,) int array
+        Increasing tick indices, 1 <= K <= ``frames``.
+    """
+    n = record.n_ticks
+    idx = np.asarray(record.phase_index)
+    starts = [int(i) for i in np.flatnonzero(np.r_[True, idx[1:] != idx[:-1]])]
+    ends = [*starts[1:], n]
+    t = np.asarray(record.t_s)
+    total = max(float(t[-1] - t[0]), 1e-12)
+    candidates = set(starts) | {n - 1}
+    for a, b in zip(starts, ends, strict=True):
+        if float(t[b - 1] - t[a]) > 0.2 * total:
+            candidates.add((a + b) // 2)
+    part = np.asarray(record.T_world_part)[:, :3, 3]
+    grip = np.asarray(record.T_world_gripper)[:, :3, 3]
+    opened = np.isin(idx, list(open_phases))
+    kept: list[int] = []
+    for k in sorted(candidates):
+        if kept and k != n - 1:
+            j = kept[-1]
+            moved = max(float(np.linalg.norm(part[k] - part[j])),
+                        float(np.nan_to_num(np.linalg.norm(grip[k] - grip[j]), nan=np.inf)))
+            if moved <= ANIMATION_STILL_M and opened[k] == opened[j]:
+                continue
+        kept.append(k)
+    if len(kept) > frames:
+        kept = [kept[i] for i in np.unique(np.linspace(0, len(kept) - 1, frames).round()
+                                           .astype(int))]
+    return np.asarray(kept, dtype=int)
 
 
 def visible_anchors(items: Sequence[SceneItem], camera: Camera) -> list[np.ndarray | None]:

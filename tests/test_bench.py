@@ -96,14 +96,19 @@ def test_bad_sections_are_bad_usage() -> None:
 
 
 def test_seed_section_times_the_workstation_through_the_cli_and_the_library() -> None:
-    timing = b.run_seed_timing(runs=1)
+    timing = b.run_seed_timing(runs=1, report_runs=1)
     assert timing.success, timing.failure
     # the stages the library run reports add up to no more than its wall time
     assert sum(v for k, v in timing.stages_s.items() if k != "report") <= timing.library_s[0]
     assert 0 < timing.imports_s[0] < timing.cli_s[0]
+    # the whole job at BALANCED with the report: its report stage is part of its wall time,
+    # and its CPU time (process and workers) was counted
+    assert 0 < timing.report_stage_s[0] < timing.report_cli_s[0]
+    assert timing.report_cpu_s[0] > 0.5  # at least the imports and the simulation
     text = b.format_markdown(b.BenchReport(quick=False, machine={}, seed=timing))
     assert "## The seed workstation end to end" in text
     assert "Every run succeeded." in text
+    assert "BALANCED, with the report (target <= 5 s, 2 cores)" in text
 
 
 def test_fits_section_counts_a_verdict_against_geometry_and_the_reference() -> None:

@@ -149,7 +149,8 @@ def run(args: argparse.Namespace) -> int:
         rep.regressions.extend(b.check_bounds(rep.fits.figures))
         show("Clearance fits", fits.format_fits(rep.fits))
     if "seed" in sections:
-        log(f"seed workstation at FAST without the report, {b.SEED_RUNS} runs")
+        log(f"seed workstation at FAST without the report, {b.SEED_RUNS} runs; at BALANCED with "
+            f"the report, {b.SEED_REPORT_RUNS} runs")
         rep.seed = b.run_seed_timing(log=log)
         show("Seed workstation end to end", b.format_seed_timing(rep.seed))
     if "planning" in sections:

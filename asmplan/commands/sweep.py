@@ -208,12 +208,11 @@ def run(args: argparse.Namespace) -> int:
         if conn is not None:
             conn.close()
     wall = time.perf_counter() - t0
-    from ..report.sweep import named_drivers, step_factors
-
-    # only factors that touch a step's scene are tested for it; drivers after a
-    # Benjamini-Hochberg correction and a minimum sample size (report/sweep.py)
-    relevant = {plan.steps[k].part: step_factors(plan, product, k) for k in ps.steps}
-    summary, q_values = named_drivers(sw.summarize(samples, results, spec.vary), relevant)
+    # only factors that touch a step's scene are tested for it; a driver is named after a
+    # Benjamini-Hochberg correction and a minimum sample size (sim/sweep/statistics.py)
+    relevant = ps.scene_factors()
+    summary = sw.summarize(samples, results, spec.vary, scene_factors=relevant,
+                           step_numbers=ps.step_numbers)
     table = []
     for s, r in zip(samples, results, strict=True):
         row: dict[str, Any] = {"index": s.index, "ok": r.ok, "error": r.error, "steps": {}}
@@ -229,22 +228,21 @@ def run(args: argparse.Namespace) -> int:
         "format": "asmplan-sweep", "version": 1, "product": product.name,
         "spec": spec.to_dict(), "fidelity": fidelity.name, "fingerprint": header["fingerprint"],
         "capture_m": captures, "summary": summary.to_dict(), "samples": table})
-    from ..report.plots import factor_label, factor_unit  # the report (jinja2, matplotlib) only here
+    # the report (jinja2, matplotlib) only here
     from ..report.sweep import (
-        FDR_ALPHA,
-        MIN_EACH_OUTCOME,
-        MIN_SAMPLES_FOR_DRIVER,
+        driver_text,
         error_text,
         failure_text,
+        no_driver_text,
         resolution_warnings,
         write_sweep_report,
     )
 
     warnings = resolution_warnings(product, fidelity, samples,
-                                   {plan.steps[k].part: plan.steps[k].mates for k in ps.steps})
+                                   {plan.steps[k].part: plan.steps[k].mates for k in ps.steps},
+                                   ps.step_numbers)
     write_sweep_report(out, product, summary, spec.to_dict(), fidelity.name, captures,
-                       n_samples=len(samples), warnings=warnings,
-                       q_values=q_values)
+                       n_samples=len(samples), warnings=warnings)
     mark_output_folder(out)
 
     print(f"{product.name}: {len(samples)} samples x {len(ps.steps)} steps at fidelity "
@@ -253,25 +251,12 @@ def run(args: argparse.Namespace) -> int:
     for w in warnings:
         print(f"warning: {w}")
     for st in summary.steps:
-        print(f"step {st.step}: success {st.successes}/{st.n} = {100 * st.rate:.1f} % "
+        print(f"{st.label}: success {st.successes}/{st.n} = {100 * st.rate:.1f} % "
               f"(95 % CI {100 * st.ci_low:.1f}-{100 * st.ci_high:.1f} %)")
         if st.driver is not None:
-            e = next(e for e in st.effects if e.factor == st.driver)
-            scale, unit = factor_unit(e.factor)
-            x50 = "" if not math.isfinite(e.x50) else f", 50 % at {e.x50 * scale:.3g} {unit}".rstrip()
-            print(f"  driven by {factor_label(e.factor)} (r = {e.correlation:+.2f}, "
-                  f"p = {e.p_value:.2g}, Benjamini-Hochberg q = "
-                  f"{q_values[st.step][e.factor]:.2g}{x50})")
+            print(f"  driven by {driver_text(st)}")
         elif st.n - st.successes:
-            enough = (st.n >= MIN_SAMPLES_FOR_DRIVER
-                      and min(st.successes, st.n - st.successes) >= MIN_EACH_OUTCOME)
-            best = min(q_values[st.step].items(), key=lambda kv: kv[1], default=None)
-            print("  no factor named as driving: " + (
-                f"none of the {len(q_values[st.step])} factors tested has q < {FDR_ALPHA:g}"
-                + (f" (lowest: {factor_label(best[0])}, q = {best[1]:.2g})" if best else "")
-                if enough else
-                f"too few samples (needs >= {MIN_SAMPLES_FOR_DRIVER} with >= "
-                f"{MIN_EACH_OUTCOME} successes and {MIN_EACH_OUTCOME} failures)"))
+            print(f"  no factor named as driving: {no_driver_text(st, summary.drivers)}")
         for f in st.failures[:5]:
             print(f"  {f.count:>5} x {failure_text(f)}")
     print(f"results in {out}/ (sweep.json, sweep-report.html, sweep-<step>.png; journal "

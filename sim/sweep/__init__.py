@@ -17,8 +17,10 @@ Four pieces, usable on their own:
   sweep is) and one line per finished sample, flushed and fsync'ed as each completes. A resumed
   sweep skips the samples already in it; a different sweep is refused.
 * **Statistics** -- :func:`summarize` gives per step the success rate with a Wilson 95 %
-  interval, the failure reasons counted, and per varied factor the success rate in bins, the
-  point-biserial correlation and a one-factor logistic fit (which factor drives the failures).
+  interval, the failure reasons counted, and per factor of the step's scene the success rate
+  in bins, the point-biserial correlation with its p-value and Benjamini-Hochberg q-value, and
+  a one-factor logistic fit; a factor is named as driving the failures only under the rules of
+  :class:`DriverSettings` (scene, minimum sample size, false discovery rate).
 
 A fifth piece (:mod:`.task`) wires these to the simulator: :class:`PlanSweep` (product, plan, fidelity),
 :func:`perturb_product` (sampled clearances and friction), :func:`apply_pose_error` (the
@@ -95,11 +97,14 @@ from .sampling import (
 )
 from .statistics import (
     BinStat,
+    DriverSettings,
+    DriverStatus,
     FactorEffect,
     FailureCount,
     StepSummary,
     SweepSummary,
     factor_effect,
+    select_driver,
     summarize,
     wilson_interval,
 )
@@ -123,6 +128,8 @@ __all__ = [
     "ClearanceRange",
     "DaskConnection",
     "DaskUnavailableError",
+    "DriverSettings",
+    "DriverStatus",
     "ExecutorBrokenError",
     "FactorEffect",
     "FailureCount",
@@ -153,6 +160,7 @@ __all__ = [
     "perturb_product",
     "run_sweep",
     "sample_press_step",
+    "select_driver",
     "sha256_hex",
     "simulate_sample",
     "summarize",

@@ -6,20 +6,14 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass
-from typing import Any
+from collections.abc import Collection, Iterable, Mapping, Sequence
+from dataclasses import asdict, dataclass, replace
+from typing import Any, Literal
 
 import numpy as np
 
 from .journal import TaskResult
 from .sampling import FACTORS, SampleParams
-
-try:  # POSIX advisory locks keep two sweeps from appending to one journal
-    import fcntl
-except ImportError:  # pragma: no cover - Windows
-    fcntl = None  # type: ignore[assignment]
-
 
 # ---------------------------------------------------------------------------------------------
 # statistics
@@ -86,6 +80,9 @@ class FactorEffect:
         Factor value where the fit predicts 50 % success (NaN when outside the sampled range).
     bins : tuple of BinStat
         Equal-width bins over the sampled range.
+    q_value : float
+        ``p_value`` adjusted for testing all of the step's factors together (Benjamini-Hochberg,
+        see :class:`DriverSettings`); NaN when the factor was not tested (``p_value`` NaN).
     """
 
     factor: str
@@ -95,6 +92,7 @@ class FactorEffect:
     logistic_slope_per_sd: float
     x50: float
     bins: tuple[BinStat, ...]
+    q_value: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -111,12 +109,70 @@ class FailureCount:
     limit: float | None = None
 
 
+DriverStatus = Literal["named", "no_failures", "too_few_samples", "nothing_tested",
+                       "none_significant"]
+"""Why a step has (or has not) a named driver: one was named; the step never failed (or never
+succeeded: nothing to contrast); fewer samples or outcomes than :class:`DriverSettings` asks;
+no factor of its scene varied; no factor's q below the false discovery rate."""
+
+
+@dataclass(frozen=True)
+class DriverSettings:
+    """How a factor is named as driving a step's failures.
+
+    For each step only the factors that can touch its scene are tested (see
+    :meth:`asmplan.sim.sweep.PlanSweep.scene_factors`); the p-values of their point-biserial
+    correlations are adjusted together with the Benjamini-Hochberg procedure
+    (:func:`scipy.stats.false_discovery_control`, ``method="bh"``), which bounds the expected
+    share of wrongly named factors at ``fdr_alpha``. A factor is named when its q-value is below
+    ``fdr_alpha`` (among several, the one with the largest absolute correlation), and only when
+    the step has at least ``min_samples`` samples with at least ``min_each_outcome`` successes
+    and as many failures.
+
+    Attributes
+    ----------
+    min_samples : int
+    min_each_outcome : int
+    fdr_alpha : float
+        False discovery rate, in (0, 1).
+    """
+
+    min_samples: int = 10
+    min_each_outcome: int = 2
+    fdr_alpha: float = 0.05
+
+    def __post_init__(self) -> None:
+        for name in ("min_samples", "min_each_outcome"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"DriverSettings.{name}: expected an integer >= 1, found {v!r}")
+        if not 0.0 < float(self.fdr_alpha) < 1.0:
+            raise ValueError(f"DriverSettings.fdr_alpha: expected a value in (0, 1), found "
+                             f"{self.fdr_alpha!r}")
+
+    @property
+    def method(self) -> str:
+        """The method in words (written into sweep.json and the report)."""
+        return (f"point-biserial correlation per factor of the step's scene (scipy.stats.pearsonr), "
+                f"p-values adjusted with Benjamini-Hochberg (scipy.stats.false_discovery_control); "
+                f"named when q < {self.fdr_alpha:g}, with at least {self.min_samples} samples and "
+                f"at least {self.min_each_outcome} successes and {self.min_each_outcome} failures")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"correction": "benjamini-hochberg", "fdr_alpha": self.fdr_alpha,
+                "min_samples": self.min_samples, "min_each_outcome": self.min_each_outcome,
+                "method": self.method}
+
+
 @dataclass(frozen=True)
 class StepSummary:
     """Success statistics of one step over the samples that evaluated it.
 
-    ``driver`` is the factor with the largest absolute correlation among those significant at
-    the 5 % level (None when none is).
+    ``step`` is the step's name (the part it moves, the key of the task's results); ``number``
+    its plan step number counted from 1, as ``run`` and the report count (None when unknown).
+    ``effects`` hold the factors tested for this step (those of its scene), each with its
+    q-value; ``driver`` is the factor named as driving its failures (:class:`DriverSettings`)
+    or None, and ``driver_status`` says why.
     """
 
     step: str
@@ -128,6 +184,13 @@ class StepSummary:
     failures: tuple[FailureCount, ...]
     effects: tuple[FactorEffect, ...]
     driver: str | None
+    driver_status: DriverStatus = "nothing_tested"
+    number: int | None = None
+
+    @property
+    def label(self) -> str:
+        """``"step 2 (part2)"``, or ``"step part2"`` without a number."""
+        return f"step {self.step}" if self.number is None else f"step {self.number} ({self.step})"
 
 
 @dataclass(frozen=True)
@@ -142,6 +205,7 @@ class SweepSummary:
     n_errors: int
     errors: tuple[tuple[str, int], ...]
     steps: tuple[StepSummary, ...]
+    drivers: DriverSettings = DriverSettings()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict (NaN becomes None)."""
@@ -155,7 +219,9 @@ class SweepSummary:
                 return [clean(v) for v in o]
             return o
 
-        return clean(asdict(self))
+        out = clean(asdict(self))
+        out["drivers"] = self.drivers.to_dict()
+        return out
 
     def step(self, name: str) -> StepSummary:
         for s in self.steps:
@@ -229,6 +295,46 @@ def _count_failures(failed: Iterable[dict[str, Any]]) -> tuple[FailureCount, ...
     return tuple(sorted(out, key=lambda f: (-f.count, f.criterion)))
 
 
+def select_driver(effects: Sequence[FactorEffect], n: int, successes: int,
+                  settings: DriverSettings = DriverSettings(),
+                  ) -> tuple[tuple[FactorEffect, ...], str | None, DriverStatus]:
+    """Name the factor driving a step's failures (see :class:`DriverSettings`).
+
+    Parameters
+    ----------
+    effects : sequence of FactorEffect
+        The step's tested factors only (those of its scene).
+    n, successes : int
+        The step's samples and successes.
+    settings : DriverSettings
+
+    Returns
+    -------
+    (effects, driver, status)
+        ``effects`` with their ``q_value`` set (NaN where ``p_value`` is NaN), the driver's
+        factor key or None, and the :data:`DriverStatus`.
+    """
+    tested = [i for i, e in enumerate(effects) if math.isfinite(e.p_value)]
+    q = [math.nan] * len(effects)
+    if tested:
+        from scipy.stats import false_discovery_control
+
+        adjusted = false_discovery_control([effects[i].p_value for i in tested], method="bh")
+        for i, v in zip(tested, np.atleast_1d(adjusted), strict=True):
+            q[i] = float(v)
+    out = tuple(replace(e, q_value=v) for e, v in zip(effects, q, strict=True))
+    if successes in (0, n):
+        return out, None, "no_failures"
+    if n < settings.min_samples or min(successes, n - successes) < settings.min_each_outcome:
+        return out, None, "too_few_samples"
+    if not tested:
+        return out, None, "nothing_tested"
+    significant = [e for e in out if e.q_value < settings.fdr_alpha]
+    if not significant:
+        return out, None, "none_significant"
+    return out, max(significant, key=lambda e: abs(e.correlation)).factor, "named"
+
+
 # Complexity above C (radon): one pass groups the samples per step; rates, failure counts and factor
 # effects follow per step.
 def summarize(
@@ -236,6 +342,10 @@ def summarize(
     results: Sequence[TaskResult],
     vary: Sequence[str] = FACTORS,
     n_bins: int = 8,
+    *,
+    scene_factors: Mapping[str, Collection[str]] | None = None,
+    step_numbers: Mapping[str, int] | None = None,
+    drivers: DriverSettings = DriverSettings(),
 ) -> SweepSummary:
     """Per-step statistics of a sweep.
 
@@ -253,6 +363,14 @@ def summarize(
         Factors to analyse (normally ``spec.vary``).
     n_bins : int
         Bins per factor.
+    scene_factors : mapping of str to collection of str, optional
+        Per step name, the factor keys that can touch its scene
+        (:meth:`~asmplan.sim.sweep.PlanSweep.scene_factors`); only those are tested for it
+        (all of a step's factors when it is missing).
+    step_numbers : mapping of str to int, optional
+        Per step name, its plan step number from 1 (:attr:`StepSummary.number`).
+    drivers : DriverSettings
+        How a driving factor is named.
 
     Returns
     -------
@@ -281,21 +399,24 @@ def summarize(
         k, m = sum(ok), len(ok)
         lo, hi = wilson_interval(k, m)
         failures = _count_failures(f for _, success, f in rows if not success)
+        allowed = None if scene_factors is None else scene_factors.get(name)
         table: dict[str, list[float]] = {}
         for s, _, _ in rows:
             for key, v in s.factors(name, vary).items():
-                table.setdefault(key, []).append(v)
-        effects = tuple(factor_effect(key, v, ok, n_bins) for key, v in table.items()
-                        if len(v) == m)
-        significant = [e for e in effects if math.isfinite(e.p_value) and e.p_value < 0.05]
-        driver = max(significant, key=lambda e: abs(e.correlation)).factor if significant else None
+                if allowed is None or key in allowed:
+                    table.setdefault(key, []).append(v)
+        effects, driver, status = select_driver(
+            [factor_effect(key, v, ok, n_bins) for key, v in table.items() if len(v) == m],
+            m, k, drivers)
         summaries.append(StepSummary(
             step=name, n=m, successes=k, rate=k / m, ci_low=lo, ci_high=hi,
-            failures=failures,
-            effects=effects, driver=driver))
+            failures=failures, effects=effects, driver=driver, driver_status=status,
+            number=None if step_numbers is None else step_numbers.get(name)))
+    if step_numbers is not None:
+        summaries.sort(key=lambda st: (st.number is None, st.number or 0))
     return SweepSummary(
         n_samples=len(samples), n_errors=sum(errors.values()),
         errors=tuple(sorted(errors.items(), key=lambda kv: (-kv[1], kv[0]))),
-        steps=tuple(summaries))
+        steps=tuple(summaries), drivers=drivers)
 
 

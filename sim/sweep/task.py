@@ -143,6 +143,26 @@ class PlanSweep:
         """One name per simulated step: the part it moves (unique within a plan)."""
         return tuple(self.plan.steps[k].part for k in self.steps)
 
+    @property
+    def step_numbers(self) -> dict[str, int]:
+        """Per step name, its plan step number counted from 1 (as ``run`` and the report)."""
+        return {self.plan.steps[k].part: k + 1 for k in self.steps}
+
+    def scene_factors(self) -> dict[str, frozenset[str]]:
+        """Per step name, the factor keys (:meth:`SampleParams.factors`) that can touch its
+        scene: the robot's pose error, the friction of every part placed so far or held, and the
+        clearance of every mate between two such parts. A part placed later is still on its
+        tray, outside the scene, and never tested for the step."""
+        out = {}
+        for k in self.steps:
+            present = {s.part for s in self.plan.steps[:k + 1]}
+            keys = {"pose_lateral_m", "pose_angular_rad"}
+            keys |= {f"friction[{p}]" for p in present}
+            keys |= {f"clearance[{m.name}]" for m in self.product.mates
+                     if m.pin_part in present and m.hole_part in present}
+            out[self.plan.steps[k].part] = frozenset(keys)
+        return out
+
     def fingerprint(self) -> str:
         """SHA-256 of the product file, the plan and the fidelity (for the journal header)."""
         source = Path(self.product.source)

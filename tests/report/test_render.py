@@ -349,3 +349,16 @@ def test_platform_errors_are_clear():
     assert "install Debian package libosmesa6" in lines["MISSING"]
     assert "needs PYOPENGL_PLATFORM=osmesa, found PYOPENGL_PLATFORM='egl'" in lines["EGL"]
     assert "already imported with OpenGL.platform.glx.GLXPlatform" in lines["GLX"]
+
+
+def test_a_mesh_changed_in_place_is_drawn_as_it_is_now():
+    # display meshes are reused between renders (same trimesh, same colour): a mesh moved in
+    # place must not be drawn from the stale copy
+    items, camera = _scene(), _top_camera()
+    before = _pixel_centroid(_red(rr.render(items, camera)))
+    items[0].mesh.apply_translation((0.02, 0.0, 0.0))
+    after = _pixel_centroid(_red(rr.render(items, camera)))
+    focal_px = (HEIGHT_PX / 2) / np.tan(YFOV_RAD / 2)
+    # the top face, 20 mm above the origin plane, sets most of the silhouette's shift
+    assert after[0] - before[0] > 0.9 * focal_px * 0.02 / EYE_HEIGHT_M
+    assert abs(after[1] - before[1]) < 0.5

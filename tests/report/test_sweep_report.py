@@ -1,6 +1,7 @@
 """What the sweep shows people: settings and factors in mm, µm and degrees, a warning when the
-sampled clearances are below what the preset resolves, and drivers named only among the
-factors of a step's scene after a multiple-testing correction."""
+sampled clearances are below what the preset resolves, steps numbered as `run` numbers them,
+and why no driver is named (the driver selection itself is tested in
+tests/sim/test_sweep_drivers.py)."""
 
 from __future__ import annotations
 
@@ -33,7 +34,9 @@ def test_resolution_warning_names_the_mate_and_counts_the_samples(examples) -> N
     res = balanced.min_resolvable_clearance_m
     samples = [SampleParams(index=i, seed=0, clearance_m={mate.name: c}, friction={}, pose={})
                for i, c in enumerate((0.5 * res, 2.0 * res, 0.9 * res))]
-    (warning,) = resolution_warnings(product, balanced, samples, {"peg": (mate.name,)})
+    (warning,) = resolution_warnings(product, balanced, samples, {"peg": (mate.name,)},
+                                     {"peg": 2})
+    assert warning.startswith("step 2 (peg): ")
     assert mate.name in warning and "2 of 3 samples" in warning
     assert f"({res * 1e6:.0f} µm)" in warning
     # resolved everywhere: no warning; not varied but below: says so
@@ -42,51 +45,23 @@ def test_resolution_warning_names_the_mate_and_counts_the_samples(examples) -> N
     assert "not varied" in unvaried
 
 
-def _effect(factor: str, r: float, p: float):
-    from asmplan.sim.sweep import FactorEffect
+def test_the_report_says_why_no_driver_is_named() -> None:
+    from asmplan.report.sweep import driver_text, no_driver_text
+    from asmplan.sim.sweep import DriverSettings, FactorEffect, StepSummary
 
-    return FactorEffect(factor, 20, r, p, 0.0, math.nan, ())
+    drivers = DriverSettings()
+    effects = (FactorEffect("pose_lateral_m", 40, -0.3, 0.04, 0.0, math.nan, (), 0.12),
+               FactorEffect("friction[part2]", 40, 0.1, 0.5, 0.0, math.nan, (), 0.5))
 
+    def step(n: int, k: int, status: str, driver: str | None = None) -> StepSummary:
+        return StepSummary("part2", n, k, k / n, 0.0, 1.0, (), effects, driver, status, 2)
 
-def _summary(n: int, successes: int, effects):
-    from asmplan.sim.sweep import StepSummary, SweepSummary
-
-    st = StepSummary("part2", n, successes, successes / n, 0.0, 1.0, (), tuple(effects), None)
-    return SweepSummary(n, 0, (), (st,))
-
-
-def test_only_factors_in_the_step_scene_are_tested(examples) -> None:
-    from types import SimpleNamespace
-
-    from asmplan.report.sweep import step_factors
-
-    product = examples["pinhole_station"]
-    plan = SimpleNamespace(steps=[SimpleNamespace(part=p) for p in ("part1", "part2", "part3",
-                                                                     "part4")])
-    factors = step_factors(plan, product, 1)  # part2 goes onto part1; part3 is still on the tray
-    assert "friction[part2]" in factors and "clearance[m21a]" in factors
-    assert "friction[part3]" not in factors and "clearance[m32a]" not in factors
-    assert {"pose_lateral_m", "pose_angular_rad"} <= factors
-
-
-def test_driver_needs_the_scene_a_correction_and_enough_samples() -> None:
-    from asmplan.report.sweep import named_drivers
-
-    allowed = {"part2": {"friction[part2]", "clearance[m21a]", "pose_lateral_m"}}
-    effects = [_effect("friction[part3]", 1.0, 0.0014),  # not in the scene: never named
-               _effect("friction[part2]", -0.6, 0.03),
-               _effect("clearance[m21a]", 0.2, 0.40),
-               _effect("pose_lateral_m", -0.5, 0.02)]
-    summary, q = named_drivers(_summary(40, 20, effects), allowed)
-    (st,) = summary.steps
-    assert {e.factor for e in st.effects} == allowed["part2"]
-    # Benjamini-Hochberg over the three tested: 0.02 -> 0.045, 0.03 -> 0.045, 0.40 -> 0.40
-    assert q["part2"]["pose_lateral_m"] == pytest.approx(0.045)
-    assert q["part2"]["friction[part2]"] == pytest.approx(0.045)
-    assert st.driver == "friction[part2]"  # the larger |r| among q < 0.05
-    # an uncorrected p of 0.04 among three does not survive the correction
-    weak = [_effect("friction[part2]", -0.6, 0.04), _effect("clearance[m21a]", 0.2, 0.5),
-            _effect("pose_lateral_m", 0.1, 0.6)]
-    assert named_drivers(_summary(40, 20, weak), allowed)[0].steps[0].driver is None
-    # too few samples (4, as in the issue): nothing is named however small p is
-    assert named_drivers(_summary(4, 2, effects), allowed)[0].steps[0].driver is None
+    assert step(40, 20, "none_significant").label == "step 2 (part2)"
+    assert no_driver_text(step(40, 20, "none_significant"), drivers) == (
+        "none of the 2 factors tested has q < 0.05 (lowest: lateral robot error, q = 0.12)")
+    assert no_driver_text(step(4, 2, "too_few_samples"), drivers) == (
+        "too few samples (needs >= 10 with >= 2 successes and 2 failures; has 4 with 2 and 2)")
+    assert no_driver_text(step(8, 0, "no_failures"), drivers).startswith("every sample failed")
+    named = driver_text(step(40, 20, "named", "pose_lateral_m"))
+    assert named.startswith("lateral robot error (correlation -0.30, p = 0.04, "
+                            "Benjamini-Hochberg q = 0.12")

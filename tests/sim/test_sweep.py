@@ -616,7 +616,14 @@ def test_the_sweep_command_writes_results_resumes_and_refuses_another_sweep(
     assert (out / "sweep-peg.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     html = (out / "sweep-report.html").read_text()
     assert 'src="sweep-peg.png"' in html and f"{st['successes']} of 2 succeeded" in html
-    assert f"step peg: success {st['successes']}/2" in first.out
+    assert st["number"] == 2  # the peg is step 2 of its plan (the block is step 1), as in `run`
+    assert f"step 2 (peg): success {st['successes']}/2" in first.out and "step 2 (peg)" in html
+    # the drivers' method and every tested factor's q-value are stored per step
+    assert data["summary"]["drivers"]["correction"] == "benjamini-hochberg"
+    assert "false_discovery_control" in data["summary"]["drivers"]["method"]
+    assert {e["factor"] for e in st["effects"]} <= {"pose_lateral_m", "pose_angular_rad"}
+    assert all("q_value" in e for e in st["effects"])
+    assert st["driver"] is None and st["driver_status"] in ("too_few_samples", "no_failures")
     # the same command again: everything comes from the journal, same numbers
     assert main(argv) == 0
     again = capsys.readouterr()
