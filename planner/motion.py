@@ -161,7 +161,7 @@ class MotionPlanner:
         self._check_layout()
         self.arm = None
         if product.resources.robot is not None and product.resources.robot.urdf_path is not None:
-            from .arm import ArmPlanner  # pinocchio only when the cell has an arm
+            from .arm_planner import ArmPlanner  # pinocchio only when the cell has an arm
 
             self.arm = ArmPlanner(product.resources.robot, self.scene, settings.arm,
                                   (GRIPPER_CLOSED, GRIPPER_OPEN))

@@ -18,7 +18,8 @@ from asmplan.knowledge.frames import make_T
 from asmplan.knowledge.loader import load_product
 from asmplan.knowledge.robot import JointLimit, bundled_urdf
 from asmplan.parts.models import ProductGeometry
-from asmplan.planner.arm import ArmModel, joint_rates
+from asmplan.planner.arm import ArmModel
+from asmplan.planner.arm_timing import joint_rates
 from asmplan.planner.errors import ArmCollisionError, JointLimitError, OutOfReachError
 from asmplan.planner.plan import ArmSettings, Plan
 from asmplan.planner.product import plan_product as _plan_product
