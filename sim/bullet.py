@@ -1,5 +1,10 @@
 """PyBullet world: the ONLY module of asmplan that imports pybullet.
 
+What needs no pybullet call lives beside it: the shapes it builds (hull OBJ text, exact hulls of
+primitives) in :mod:`asmplan.sim.bullet_shapes`, Bullet's bounding radius and contact
+breaking distance in :mod:`asmplan.sim.bullet_breaking`, the contact arrays in
+:mod:`asmplan.sim.contacts` and the link specifications in :mod:`asmplan.sim.bullet_specs`.
+
 :class:`BulletWorld` is a context manager that owns one DIRECT physics client and passes its
 id explicitly on every call (no global client). It is configured from a
 :class:`~asmplan.sim.fidelity.Fidelity` and builds bodies from the
@@ -25,31 +30,17 @@ base and never move.
 Poses returned by this module are link frames (the part frame for parts), not PyBullet's
 centre-of-mass frames.
 
-Contact breaking distance
--------------------------
-Bullet keeps a contact point of a pair in a persistent manifold, with the normal it had when
-it was found, until the point separates along that normal or slides sideways by more than
-the pair's breaking distance; it also creates points up to that distance before the bodies
-touch. The distance is the world's breaking fraction (PyBullet's ``contactBreakingThreshold``,
-0.02 by default) times the smaller of the two colliders' bounding radii (Bullet's "angular
-motion disc": half the diagonal of the collider's bounding box in its inertial frame plus
-the box centre's distance from the centre of mass): 0.36 mm for a 20 mm collar. A point born
-between two chamfers therefore survives while a part slides on through a gap narrower than
-that, pushing along its stale normal (a phantom contact).
-:meth:`BulletWorld.limit_contact_breaking_m` lowers the fraction for one world so that no
-contact of a given body is kept farther than a given distance (:func:`bounding_radius_m`).
-
 Contact forces
 --------------
 :meth:`BulletWorld.contacts` returns the points as arrays; ``normal_on_b`` points from B to A,
 so ``normal_force_N * normal_on_b`` is the normal force ON A. PyBullet reports the friction
 vectors of a contact as the force on its internal manifold's body 0, whatever order the query
 used. Measured rule: if exactly one of the two colliders is a compound shape it is body 0,
-otherwise the collider created first is. :class:`Contacts` stores friction already signed as
-the force on A (validated in ``tests/sim/test_bullet.py`` against static equilibrium on a
-slope for every kind of collider this module builds, in both creation orders).
+otherwise the collider created first is. :class:`~asmplan.sim.contacts.Contacts` stores
+friction already signed as the force on A (validated in ``tests/sim/test_bullet.py`` against
+static equilibrium on a slope for every kind of collider this module builds, in both creation
+orders).
 """
-
 from __future__ import annotations
 
 import contextlib
@@ -58,9 +49,7 @@ import os
 import shutil
 import tempfile
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
 from types import TracebackType
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -69,6 +58,24 @@ from ..errors import AsmplanError
 from ..knowledge.frames import invert
 from ..parts.pieces import ConvexPiece
 from ..planner.trajectory import quat_xyzw_from_matrix
+from .bullet_breaking import (
+    BREAKING_CAP_EXTRA_UNITS,
+    BREAKING_RADIUS_CAP_UNITS,
+    _breaking_distance_m,
+    bounding_radius_m,
+    default_breaking_fraction,
+)
+from .bullet_shapes import (
+    MAX_COMPOUND_CHILDREN,
+    PRISM_TOLERANCE_FRACTION,
+    _hulls_obj_text,
+    _is_compound,
+    exact_hull,
+    pose_to_pq,
+    principal_frame,
+)
+from .bullet_specs import LinkSpec, _BodyInfo
+from .contacts import Contacts
 from .fidelity import Fidelity
 
 
@@ -117,8 +124,6 @@ def _fd_to_devnull(fd: int) -> Iterator[None]:
         os.dup2(saved, fd)
         os.close(saved)
 
-MAX_COMPOUND_CHILDREN = 16
-"""PyBullet drops compound children beyond this count silently."""
 
 MILLIMETRE_UNITS_PER_M = 1000.0
 """``Fidelity.bullet_units_per_m`` of BALANCED and ACCURATE: Bullet length units per metre,
@@ -144,7 +149,6 @@ _PRIMITIVES_AS_HULLS = False
 # max_force_N N m as it was in metres; the force bound is then S x max_force_N N: the robot's
 # position hold is stiff, as a robot's is.
 
-JointKind = Literal["fixed", "prismatic", "revolute"]
 _JOINT_TYPES = {
     "fixed": pybullet.JOINT_FIXED,
     "prismatic": pybullet.JOINT_PRISMATIC,
@@ -173,12 +177,6 @@ class ShapeDroppedError(BulletError):
 # --------------------------------------------------------------------------------------------
 # Small frame helpers
 # --------------------------------------------------------------------------------------------
-def pose_to_pq(T: np.ndarray) -> tuple[list[float], list[float]]:
-    """(4, 4) homogeneous transform -> (position list (3,), quaternion xyzw list (4,))."""
-    T = np.asarray(T, dtype=float)
-    return T[:3, 3].tolist(), quat_xyzw_from_matrix(T[:3, :3]).tolist()
-
-
 def _pose_from_bullet(position: Sequence[float], quat_xyzw: Sequence[float], units_per_m: float
                       ) -> np.ndarray:
     """(position, quaternion xyzw) from PyBullet, in its units, -> (4, 4) transform in metres
@@ -188,360 +186,6 @@ def _pose_from_bullet(position: Sequence[float], quat_xyzw: Sequence[float], uni
     T[:3, 3] = position
     T[:3, 3] /= units_per_m
     return T
-
-
-def principal_frame(inertia_kgm2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Principal moments (3,) and a proper rotation (3, 3) whose columns are the axes."""
-    inertia = np.asarray(inertia_kgm2, dtype=float)
-    sym = 0.5 * (inertia + inertia.T)
-    moments, axes = np.linalg.eigh(sym)
-    if np.linalg.det(axes) < 0:
-        axes[:, 2] = -axes[:, 2]
-    return moments, axes
-
-
-_OBJ_CACHE: dict[bytes, str] = {}
-_OBJ_CACHE_MAX = 512
-
-
-def _hulls_obj_text(hulls: Sequence[ConvexPiece], units_per_m: float) -> str:
-    """Wavefront OBJ text with one object per hull (vertices in the body frame), cached by
-    content: a part is built in several steps' worlds, its hulls are computed once."""
-    import hashlib
-
-    h = hashlib.blake2b(digest_size=20)
-    h.update(repr(units_per_m).encode())
-    for pc in hulls:
-        assert pc.vertices_m is not None
-        h.update(np.ascontiguousarray(pc.vertices_m, dtype=float).tobytes())
-        h.update(np.ascontiguousarray(pc.T_part_piece, dtype=float).tobytes())
-        h.update(b"|")
-    key = h.digest()
-    text = _OBJ_CACHE.get(key)
-    if text is not None:
-        return text
-    from ..parts.mesh import convex_hull
-
-    lines = []
-    offset = 1
-    for k, pc in enumerate(hulls):
-        assert pc.vertices_m is not None
-        R, t = pc.T_part_piece[:3, :3], pc.T_part_piece[:3, 3]
-        hull = convex_hull((pc.vertices_m @ R.T + t) * units_per_m)
-        lines.append(f"o hull{k}")
-        lines.extend(f"v {x!r} {y!r} {z!r}" for x, y, z in hull.vertices.tolist())
-        lines.extend(
-            f"f {i + offset} {j + offset} {m + offset}" for i, j, m in hull.faces.tolist()
-        )
-        offset += len(hull.vertices)
-    text = "\n".join(lines) + "\n"
-    if len(_OBJ_CACHE) >= _OBJ_CACHE_MAX:
-        _OBJ_CACHE.clear()
-    _OBJ_CACHE[key] = text
-    return text
-
-
-def _is_compound(group: Sequence[ConvexPiece]) -> bool:
-    """Whether PyBullet builds a compound shape for this collision-shape group.
-
-    Several hulls (OBJ objects) or several primitives make a compound; one primitive too when
-    it has a collision-frame offset; one hull or one primitive at the identity do not.
-    """
-    if len(group) != 1:
-        return True
-    piece = group[0]
-    return piece.kind != "hull" and not np.array_equal(piece.T_part_piece, np.eye(4))
-
-
-PRISM_TOLERANCE_FRACTION = 0.05
-"""A cylinder is simulated as a prism inscribed in it whose radial error ``r (1 - cos(pi/n))``
-is at most this fraction of the preset's interference resolution
-(``Fidelity.interference_resolution_m``), so the fit's clearance changes by at most a
-tenth of it: 2.5 um at BALANCED (a 10 mm pin gets 100 sides), 1 um at ACCURATE (160 sides),
-20 um at FAST (36 sides)."""
-
-PRISM_MIN_SIDES = 16
-PRISM_MAX_SIDES = 256
-
-
-def prism_sides(radius_m: float, tolerance_m: float) -> int:
-    """Fewest sides (a multiple of 4, within [16, 256]) of a prism inscribed in a circle of
-    ``radius_m`` whose faces are at most ``tolerance_m`` inside it: r (1 - cos(pi/n)) <= tol."""
-    if not (radius_m > 0 and tolerance_m > 0):
-        raise ValueError(f"prism_sides: expected positive radius and tolerance, found "
-                         f"{radius_m}, {tolerance_m}")
-    ratio = min(1.0, tolerance_m / radius_m)
-    n = math.pi / math.acos(1.0 - ratio) if ratio < 1.0 else 4.0
-    n = 4 * math.ceil(n / 4 - 1e-9)
-    return int(min(PRISM_MAX_SIDES, max(PRISM_MIN_SIDES, n)))
-
-
-def exact_hull(piece: ConvexPiece, tolerance_m: float) -> ConvexPiece:
-    """The margin-free hull PyBullet simulates for a box or cylinder piece (same frame).
-
-    PyBullet's GEOM_BOX and GEOM_CYLINDER keep their collision margin (1 mm) inside the shape:
-    faces sit where declared but every edge and rim is rounded by the margin (a probe off a
-    10 mm box's edge measures 0.41 mm too far, off a cylinder's rim likewise). A hull with
-    zero margin has sharp edges. A box becomes its 8 corners; a cylinder a prism inscribed in
-    it (never larger than the part, so a fit never turns into an interference) with
-    :func:`prism_sides` sides, a vertex on the piece's +x axis. Hulls and spheres are
-    returned unchanged (a sphere's margin is its radius: exact)."""
-    if piece.kind == "box":
-        assert piece.half_extents_m is not None
-        h = np.asarray(piece.half_extents_m, dtype=float)
-        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)],
-                           dtype=float) * h
-        return ConvexPiece(kind="hull", T_part_piece=piece.T_part_piece, vertices_m=corners,
-                           name=piece.name)
-    if piece.kind == "cylinder":
-        n = prism_sides(piece.radius_m, tolerance_m)
-        ang = 2.0 * math.pi * np.arange(n) / n
-        ring = np.column_stack([piece.radius_m * np.cos(ang), piece.radius_m * np.sin(ang)])
-        half = 0.5 * piece.length_m
-        verts = np.vstack([np.column_stack([ring, np.full(n, -half)]),
-                           np.column_stack([ring, np.full(n, half)])])
-        return ConvexPiece(kind="hull", T_part_piece=piece.T_part_piece, vertices_m=verts,
-                           name=piece.name)
-    return piece
-
-
-PYBULLET_CONTACT_BREAKING_FRACTION = 0.02
-"""PyBullet's default ``contactBreakingThreshold`` (Bullet's ``gContactBreakingThreshold``): a
-fraction of each collider's bounding radius, see the module docstring."""
-
-HULL_BOX_GROWTH_UNITS = 2e-3
-"""Bullet's bounding box of a hull collider (the OBJ compound) is the hulls' box grown by this
-much along every axis: PyBullet's default margin of 0.001 units, counted at creation by the hulls and by
-their compound, before :meth:`BulletWorld.add_body` sets the margin to the fidelity's value.
-Measured: with it the probed breaking distances of five gear_unit parts match to 1e-4
-relative; without it they are 6-22 % larger than predicted. ``tests/sim/test_bullet.py``
-re-checks it."""
-
-
-BREAKING_RADIUS_CAP_UNITS = 2.0
-"""Measured: the breaking distance stops growing with the bounding radius at 2 Bullet units
-(2 mm here); from there it is ``fraction x 2 units`` plus :data:`BREAKING_CAP_EXTRA_M` (the
-two colliders' creation margins), 42 um at PyBullet's default fraction, for any larger body
-(``tests/sim/test_bullet.py``). In metres the cap (2 m) was never reached."""
-
-BREAKING_CAP_EXTRA_UNITS = 2e-3
-
-
-def default_breaking_fraction(fidelity: Fidelity) -> float:
-    """The world's breaking fraction: PyBullet's default (0.02) in metres; in millimetres the
-    fraction that makes the capped distance the preset's contact distance
-    (``Fidelity.contact_distance_m``, half its ``interference_resolution_m``: 25 um at
-    BALANCED, 10 um at ACCURATE, less PyBullet's 2 um of creation margins). PyBullet's 0.02
-    gives 42 um. A part approaching at v finds a contact before it penetrates when
-    v dt is below it (the rim of an unchamfered hole: ``Fidelity.min_resolvable_clearance_m``)."""
-    units = float(fidelity.bullet_units_per_m)
-    if units == 1.0:
-        return PYBULLET_CONTACT_BREAKING_FRACTION
-    target_m = fidelity.contact_distance_m - BREAKING_CAP_EXTRA_UNITS / units
-    cap_m = BREAKING_RADIUS_CAP_UNITS / units
-    return min(PYBULLET_CONTACT_BREAKING_FRACTION, max(target_m, 0.25 * target_m) / cap_m)
-
-
-def _breaking_distance_m(fraction: float, radius_m: float, units_per_m: float) -> float:
-    """Bullet's contact creation/breaking distance of a pair, m, for the smaller radius."""
-    cap = BREAKING_RADIUS_CAP_UNITS / units_per_m
-    if radius_m >= cap:
-        return fraction * cap + BREAKING_CAP_EXTRA_UNITS / units_per_m
-    return fraction * radius_m
-
-
-def _piece_box(piece: ConvexPiece) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi) (3,) of the box Bullet bounds ``piece`` by, body frame, m: the hull's exact box,
-    a sphere's, or the box of the rotated local box of a box or cylinder."""
-    T = piece.T_part_piece
-    if piece.kind == "hull":
-        assert piece.vertices_m is not None
-        pts = piece.vertices_m @ T[:3, :3].T + T[:3, 3]
-        return pts.min(axis=0), pts.max(axis=0)
-    if piece.kind == "sphere":
-        return T[:3, 3] - piece.radius_m, T[:3, 3] + piece.radius_m
-    if piece.kind == "box":
-        assert piece.half_extents_m is not None
-        half = np.asarray(piece.half_extents_m, dtype=float)
-    else:
-        half = np.array([piece.radius_m, piece.radius_m, 0.5 * piece.length_m])
-    reach = np.abs(T[:3, :3]) @ half
-    return T[:3, 3] - reach, T[:3, 3] + reach
-
-
-def bounding_radius_m(group: Sequence[ConvexPiece], com_m: ArrayLike,
-                      R_link_inertial: np.ndarray, units_per_m: float = 1.0) -> float:
-    """Bullet's bounding radius ("angular motion disc") of one collider, m.
-
-    Parameters
-    ----------
-    group : sequence of ConvexPiece
-        The pieces of one collision shape (all hulls, or up to 16 primitives), link frame.
-    com_m : (3,) float
-        The link's centre of mass (its inertial frame's origin), link frame, m.
-    R_link_inertial : (3, 3) float array
-        Axes of the inertial frame in the link frame.
-
-    Returns
-    -------
-    float
-        Half the diagonal of the collider's box taken into the inertial frame (the box of the
-        rotated box, as Bullet bounds a compound's child) plus the distance of its centre from
-        the centre of mass. A pair's breaking distance is the world's breaking fraction times
-        the smaller of its two colliders' radii.
-    """
-    boxes = [_piece_box(pc) for pc in group]
-    lo = np.min([b[0] for b in boxes], axis=0)
-    hi = np.max([b[1] for b in boxes], axis=0)
-    half = 0.5 * (hi - lo)
-    if any(pc.kind == "hull" for pc in group):
-        half = half + HULL_BOX_GROWTH_UNITS / units_per_m
-    R = np.asarray(R_link_inertial, dtype=float)
-    centre = R.T @ (0.5 * (hi + lo) - np.asarray(com_m, dtype=float))
-    return float(np.linalg.norm(np.abs(R.T) @ half) + np.linalg.norm(centre))
-
-
-# --------------------------------------------------------------------------------------------
-# Contacts
-# --------------------------------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class Contacts:
-    """Contact points between body A and others after the last step (arrays of length n).
-
-    Attributes
-    ----------
-    body_b, link_a, link_b : (n,) int arrays
-    position_on_a_m, position_on_b_m : (n, 3) float arrays, world frame, m.
-    normal_on_b : (n, 3) unit vectors from B toward A (world frame).
-    distance_m : (n,) signed distance, m; negative is penetration.
-    normal_force_N : (n,) normal force magnitude, N (>= 0).
-    friction_on_a_N : (n, 3) friction force vector acting on A, N.
-    """
-
-    body_b: np.ndarray
-    link_a: np.ndarray
-    link_b: np.ndarray
-    position_on_a_m: np.ndarray
-    position_on_b_m: np.ndarray
-    normal_on_b: np.ndarray
-    distance_m: np.ndarray
-    normal_force_N: np.ndarray
-    friction_on_a_N: np.ndarray
-
-    @property
-    def count(self) -> int:
-        """Number of contact points."""
-        return int(self.distance_m.shape[0])
-
-    def force_on_a_N(self) -> np.ndarray:
-        """Total contact force (normal + friction) acting on A, world frame, (3,) N."""
-        if self.count == 0:
-            return np.zeros(3)
-        normal = self.normal_force_N[:, None] * self.normal_on_b
-        return np.sum(normal + self.friction_on_a_N, axis=0)
-
-    def normal_force_sum_N(self) -> float:
-        """Sum of the normal force magnitudes, N."""
-        return float(np.sum(self.normal_force_N))
-
-    def max_penetration_m(self) -> float:
-        """Deepest penetration among the points, m (0 when none penetrates)."""
-        if self.count == 0:
-            return 0.0
-        return float(max(0.0, -np.min(self.distance_m)))
-
-    def select(self, mask: np.ndarray) -> Contacts:
-        """Subset of the points where ``mask`` (n,) is true."""
-        return Contacts(*(getattr(self, f)[mask] for f in _CONTACT_FIELDS))
-
-
-_CONTACT_FIELDS = (
-    "body_b",
-    "link_a",
-    "link_b",
-    "position_on_a_m",
-    "position_on_b_m",
-    "normal_on_b",
-    "distance_m",
-    "normal_force_N",
-    "friction_on_a_N",
-)
-
-
-# --------------------------------------------------------------------------------------------
-# Link specification (articulated bodies such as the gripper)
-# --------------------------------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class LinkSpec:
-    """One link of an articulated body built by :meth:`BulletWorld.add_articulated`.
-
-    Parameters
-    ----------
-    name : str
-    pieces : tuple of ConvexPiece
-        Collision pieces in the link frame: up to 16 primitives, or exactly one hull.
-    mass_kg : float
-    T_parent_link : (4, 4) float array
-        Link frame in the parent's link frame at joint position 0.
-    joint : {"fixed", "prismatic", "revolute"}
-    axis : (3,) float
-        Joint axis in the link frame (unit vector).
-    com_m : (3,) float
-        Centre of mass in the link frame, m.
-    inertia_diag_kgm2 : (3,) float
-        Principal inertia about the centre of mass, axes aligned with the link frame.
-    parent : int
-        Index of the parent link in the list passed to ``add_articulated``, -1 for the base.
-    limits_m : (lower, upper) or None
-        Joint limits (m or rad).
-    friction : float
-        Lateral friction coefficient of the link.
-    spinning_friction : float
-    joint_damping : float
-        Viscous joint damping, N s/m (prismatic) or N m s/rad (revolute).
-    """
-
-    name: str
-    pieces: tuple[ConvexPiece, ...]
-    mass_kg: float
-    T_parent_link: np.ndarray
-    joint: JointKind = "fixed"
-    axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
-    com_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    inertia_diag_kgm2: tuple[float, float, float] | None = None
-    parent: int = -1
-    limits: tuple[float, float] | None = None
-    friction: float = 0.5
-    spinning_friction: float = 0.0
-    joint_damping: float = 0.0
-
-    def __post_init__(self) -> None:
-        T = np.array(self.T_parent_link, dtype=float)
-        if T.shape != (4, 4):
-            raise ValueError(f"LinkSpec {self.name}: T_parent_link expected (4, 4), found {T.shape}")
-        object.__setattr__(self, "T_parent_link", T)
-        if self.joint not in _JOINT_TYPES:
-            raise ValueError(
-                f"LinkSpec {self.name}: joint expected one of {list(_JOINT_TYPES)}, "
-                f"found {self.joint!r}"
-            )
-        if self.mass_kg < 0:
-            raise ValueError(f"LinkSpec {self.name}: mass_kg expected >= 0, found {self.mass_kg}")
-
-
-@dataclass
-class _BodyInfo:
-    name: str
-    mass_kg: float
-    static: bool
-    T_link_inertial: np.ndarray  # base inertial frame in the base link frame
-    n_links: int
-    inertia_kgm2: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
-    compound_links: frozenset[int] = frozenset()
-    bounding_radius_m: float = math.nan  # the largest of its colliders' (bounding_radius_m)
-
-    def __post_init__(self) -> None:
-        self.T_inertial_link = invert(self.T_link_inertial)
 
 
 # --------------------------------------------------------------------------------------------

@@ -44,7 +44,8 @@ from ..planner.trajectory import (
     quat_xyzw_from_matrix,
     rotation_angle_rad,
 )
-from .bullet import BulletWorld, Contacts
+from .bullet import BulletWorld
+from .contacts import Contacts
 from .gripper import FINGER_LINKS, Gripper
 from .records import HELD_PHASES, StepOutcome, StepRecord, SuccessCriteria
 from .verdicts import (

@@ -32,7 +32,8 @@ import numpy as np
 
 from ..parts.pieces import ConvexPiece
 from ..planner.trajectory import quat_xyzw_from_matrix
-from .bullet import BulletWorld, LinkSpec
+from .bullet import BulletWorld
+from .bullet_specs import LinkSpec
 
 TOUCH_RAMP_S = 0.01
 """Time over which the squeeze rises to the command once both pads touch, s
