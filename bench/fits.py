@@ -291,7 +291,7 @@ def _figures(runs: Sequence[FitRun], reference: dict[tuple[float, float, str], F
     from capture geometry's; asserted where the fit is at or above the preset's resolution."""
     from asmplan.sim.fidelity import PRESETS
 
-    from .suite import AccuracyFigure
+    from .bounds import AccuracyFigure
 
     out = []
     for r in runs:
