@@ -22,7 +22,6 @@ def pose_to_pq(T: np.ndarray) -> tuple[list[float], list[float]]:
     return T[:3, 3].tolist(), quat_xyzw_from_matrix(T[:3, :3]).tolist()
 
 
-
 def principal_frame(inertia_kgm2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Principal moments (3,) and a proper rotation (3, 3) whose columns are the axes."""
     inertia = np.asarray(inertia_kgm2, dtype=float)

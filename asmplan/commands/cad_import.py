@@ -11,7 +11,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..knowledge.loader import LENGTH_UNITS
+from ..knowledge.product_schema import LENGTH_UNITS
 
 
 def register(sub: argparse._SubParsersAction) -> None:
