@@ -40,14 +40,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..knowledge.errors import ProductError
     from ..knowledge.loader import load_default_fits
-    from ..parts.cad_import import (
-        CadImportError,
-        ImportSettings,
-        check_outputs,
-        import_assembly,
-        summary_lines,
-        write_product,
-    )
+    from ..parts.cad_import import CadImportError, ImportSettings, import_assembly
+    from ..parts.cad_product import check_outputs, summary_lines, write_product
 
     rules = None
     if args.default_fits:
