@@ -32,10 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .cad_features import CadFeature, RecognitionTolerance, fit_mesh_surfaces, recognise
+from .cad_features import CadFeature, RecognitionTolerance, recognise
 from .cad_mates import ISO_METRIC, propose_mates
 from .cad_product import product_yaml, summary_lines, write_product
 from .cad_types import CadImportError, ImportedPart, ImportResult, ImportSettings, ProposedMate, _clean
+from .surface_fit import fit_mesh_surfaces
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".off")
 STEP_SUFFIXES = (".step", ".stp")

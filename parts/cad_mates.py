@@ -10,8 +10,9 @@ import math
 import numpy as np
 
 from ..knowledge.fit_rules import builtin_rules, default_fit
-from .cad_features import CadFeature, line_distance
+from .cad_features import CadFeature
 from .cad_types import ImportedPart, ImportSettings, ProposedMate, _apply, _apply_all
+from .surface_fit import line_distance
 
 # ISO 261/724 metric coarse threads: nominal -> (tap drill, minor diameter of the nut), mm
 ISO_METRIC = {1.6: (1.25, 1.221), 2: (1.6, 1.567), 2.5: (2.05, 2.013), 3: (2.5, 2.459), 4: (3.3, 3.242),

@@ -6,7 +6,7 @@ VTK viewer libraries). Through OpenCASCADE's XCAF reader this module gives
 - the assembly tree: every solid instance with its name (the component's name, else the
   part definition's), its placement in the assembly frame and the part definition it shares
   with other instances (six identical nuts are one definition placed six times);
-- per part definition, its analytic surfaces (:class:`~asmplan.parts.cad_features.Surface`:
+- per part definition, its analytic surfaces (:class:`~asmplan.parts.surface_fit.Surface`:
   cylinders, cones, planes with their exact parameters), and a tessellation within a chordal
   deflection, in the definition's own frame;
 - the file's length unit (OpenCASCADE converts to millimetres on reading; this module converts
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cad_features import Surface
+from .surface_fit import Surface
 
 
 class StepReadError(ValueError):
