@@ -48,9 +48,10 @@ import numpy as np
 from ..knowledge.model import Product
 from ..planner.plan import AssemblyState, Plan, Step, assembly_state, state_before
 from .bullet import BulletWorld
-from .execute import execute_step, failed_outcome, scene_warnings
+from .execute import execute_step, scene_warnings
 from .fidelity import BALANCED, PRESETS, Fidelity
 from .gripper import CoupledGripper
+from .judge import failed_outcome
 from .pose_error import PoseError, apply_pose_error
 from .press import press_clearance_m, press_recorder, press_relaxed
 from .records import SuccessCriteria
