@@ -7,7 +7,10 @@ The tree (each error carries its evidence as attributes; the text is for people)
   :class:`~asmplan.planner.sequence.PrecedenceConflictError` below it
 * :class:`~asmplan.knowledge.iso286.FitError`, :class:`~asmplan.parts.geometry.GeometryError`,
   :class:`~asmplan.parts.meshfile.MeshFileError`, :class:`~asmplan.parts.mesh.DegenerateHullError`,
-  :class:`~asmplan.sim.scene.PlanProductMismatchError` -- invalid values (also ``ValueError``)
+  :class:`~asmplan.sim.scene.PlanProductMismatchError`, :class:`~asmplan.knowledge.robot.UrdfError`,
+  :class:`~asmplan.knowledge.press_fit.PressFitError`,
+  :class:`~asmplan.parts.step_brep.StepReadError`,
+  :class:`~asmplan.parts.cad_types.CadImportError` -- invalid values (also ``ValueError``)
 * :class:`~asmplan.planner.errors.PlanningError` -- no plan exists, with the failing step,
   part and colliding pairs (``StartInCollisionError``, ``NoPathError``,
   ``InsertionBlockedError``, ``NoGraspError``, ``GripInfeasibleError``,

@@ -42,12 +42,13 @@ from importlib import resources
 
 import yaml
 
+from ..errors import AsmplanError
 from . import iso286
 from .materials import Material
 from .model import Mate
 
 
-class PressFitError(ValueError):
+class PressFitError(AsmplanError, ValueError):
     """The press force of a mate cannot be predicted (a material lacks elastic data, a
     geometry that is not a cylinder joint); ``mate`` names it."""
 

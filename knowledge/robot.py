@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import AsmplanError
 from .frames import make_T
 
 ARM_JOINTS = 6
@@ -95,7 +96,7 @@ class UrdfArm:
     collisions: tuple[UrdfCollision, ...]
 
 
-class UrdfError(ValueError):
+class UrdfError(AsmplanError, ValueError):
     """A URDF file cannot be used as the cell's arm; the message says what was expected."""
 
 

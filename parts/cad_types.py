@@ -9,11 +9,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import AsmplanError
 from ..knowledge.fit_rules import FitRule
 from .cad_features import CadFeature
 
 
-class CadImportError(ValueError):
+class CadImportError(AsmplanError, ValueError):
     """An assembly that cannot be imported; ``path`` and ``reason`` say which and why."""
 
     def __init__(self, path: Path | str, reason: str):

@@ -23,10 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import AsmplanError
 from .surface_fit import Surface
 
 
-class StepReadError(ValueError):
+class StepReadError(AsmplanError, ValueError):
     """A STEP file that cannot be read as an assembly; ``path`` and ``reason`` say why."""
 
     def __init__(self, path: Path | str, reason: str):
