@@ -846,6 +846,34 @@ class BulletWorld:
                 best = min(best, p[8] / self._S)
         return best
 
+    def bodies_near(self, body: int, margin_m: float) -> set[int]:
+        """Ids of the other bodies whose bounding boxes overlap ``body``'s (all its links)
+        grown by ``margin_m`` (Bullet's broad phase; cheap, conservative)."""
+        cid = self.client_id
+        grow = self._S * float(margin_m)
+        near: set[int] = set()
+        for link in range(-1, self._bodies[body].n_links):
+            lo, hi = pybullet.getAABB(body, link, physicsClientId=cid)
+            found = pybullet.getOverlappingObjects([v - grow for v in lo],
+                                                   [v + grow for v in hi],
+                                                   physicsClientId=cid) or ()
+            near.update(b for b, _ in found if b != body)
+        return near
+
+    def sleep(self, body: int, wake_speed_mps: float) -> None:
+        """Put a dynamic body to sleep where it is (Bullet deactivation, zero velocity):
+        the solver and integrator skip it until an active body's bounding box overlaps its
+        own (it is then integrated again; :mod:`asmplan.sim.rest`). Bullet also wakes it
+        when, after a step it was integrated in, its squared speed (units^2/s^2 +
+        rad^2/s^2) exceeds ``wake_speed_mps`` squared (in Bullet units)."""
+        cid = self.client_id
+        pybullet.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
+        pybullet.changeDynamics(body, -1, sleepThreshold=(self._S * float(wake_speed_mps)) ** 2,
+                                activationState=pybullet.ACTIVATION_STATE_ENABLE_SLEEPING,
+                                physicsClientId=cid)
+        pybullet.changeDynamics(body, -1, activationState=pybullet.ACTIVATION_STATE_SLEEP,
+                                physicsClientId=cid)
+
     def max_penetration_m(self, body_a: int) -> float:
         """Deepest penetration among body A's contact points after the last step, m (0 when
         none penetrates); cheaper than ``contacts(body_a).max_penetration_m()``."""

@@ -45,6 +45,7 @@ from .contacts import Contacts
 from .gripper import FINGER_LINKS, Gripper
 from .judge import _SPEED_MARGIN_MPS, _failures, judge
 from .records import StepOutcome, StepRecord, SuccessCriteria
+from .rest import RestKeeper
 from .verdicts import ContactEvidence, Failure, FailureCode, SceneGuard, two_point_contacts
 
 PEAK_SAMPLE_DT_S = 0.004
@@ -227,6 +228,8 @@ def execute_step(
     z_top = {b: float(world.com_position_m(b)[2]) for b in watched}
     stop: Failure | None = None
     lower_contacts: dict[int, Contacts] = {}  # record row -> the part's non-finger contacts
+    rest = RestKeeper(world, gripper.body, part_body) if fid.rest_window_s > 0 else None
+    placed_after = names.index("lower") if "lower" in names else len(names)
     wall0 = time.perf_counter()
     r = 0
     for i in range(n_steps):
@@ -335,6 +338,8 @@ def execute_step(
         r += 1
         if nan_detected:
             break
+        if rest is not None:  # bodies at rest that nothing moving can reach sleep (sim/rest)
+            rest.tick(bool(mode_open) and int(phase_idx[i]) > placed_after)
     wall = time.perf_counter() - wall0
     if r < m:  # stopped early (NaN, guard): keep the rows written so far
         rec = {name: a[:r] for name, a in rec.items()}
