@@ -13,6 +13,7 @@ result (``failure``, ``results.failed_steps``), not an exception; only bad input
 from __future__ import annotations
 
 import math
+import resource
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -74,6 +75,9 @@ class RunResult:
     """Better-ranked part orders that could not be planned, each with ``order`` and ``failure``."""
     warnings: list[str] = field(default_factory=list)
     timings_s: dict[str, float] = field(default_factory=dict)
+    cpu_s: dict[str, float] = field(default_factory=dict)
+    """CPU time (user + system) per stage, s: this process's and that of its finished child
+    processes (the simulation workers, counted when they end, i.e. in "simulate")."""
 
     @property
     def failure(self) -> str:
@@ -97,6 +101,13 @@ class RunResult:
         return 0 if self.success else 1
 
 
+def cpu_now_s() -> float:
+    """CPU seconds (user + system) used so far by this process and its reaped children."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def finite_json(value: Any) -> Any:
     """``value`` with every non-finite float (nan, inf) replaced by None: JSON has neither,
     and asmplan writes strict JSON."""
@@ -117,6 +128,7 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
         product = load_product(product)
     fidelity = settings.fidelity_preset
     t0 = time.perf_counter()
+    c0 = cpu_now_s()
     geometry = ProductGeometry(product)
     result = RunResult(product, geometry, fidelity)
 
@@ -131,6 +143,8 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
         result.error = exc
     t1 = time.perf_counter()
     result.timings_s["sequence"] = t1 - t0
+    c1 = cpu_now_s()
+    result.cpu_s["sequence"] = c1 - c0
     tick("sequence", 1, 1, "")
     n_moving = sum(not product.is_fixtured(p) for p in product.part_names)
     workers = resolve_workers(settings.workers, n_moving) if settings.simulate else 1
@@ -161,6 +175,8 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
                 result.error = exc
         t2 = time.perf_counter()
         result.timings_s["plan"] = t2 - t1
+        c2 = cpu_now_s()
+        result.cpu_s["plan"] = c2 - c1
         if result.plan is not None and settings.simulate:
             if pipe is not None:
                 result.results = pipe.results(result.plan, progress=sim_progress)
@@ -182,6 +198,8 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
         if pipe is not None:
             pipe.close()
     result.timings_s["simulate"] = time.perf_counter() - t2
+    if "plan" in result.cpu_s:
+        result.cpu_s["simulate"] = cpu_now_s() - c2
     result.warnings = list(dict.fromkeys(result.warnings))  # once each, in order
     return result
 
@@ -198,6 +216,7 @@ def write_outputs(result: RunResult, outdir: str | Path | OutputFolder, *, repor
     otherwise).
     """
     t0 = time.perf_counter()
+    c0 = cpu_now_s()
     folder = outdir if isinstance(outdir, OutputFolder) else OutputFolder(outdir)
     try:
         stage = folder.stage
@@ -229,4 +248,5 @@ def write_outputs(result: RunResult, outdir: str | Path | OutputFolder, *, repor
         if folder is not outdir:
             folder.close()
     result.timings_s["report"] = time.perf_counter() - t0
+    result.cpu_s["report"] = cpu_now_s() - c0
     return target if not isinstance(outdir, str | Path) else Path(outdir)

@@ -7,12 +7,13 @@ from __future__ import annotations
 import io
 import itertools
 import math
+import re
 import statistics
 import subprocess
 import tempfile
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -224,7 +225,10 @@ class SeedRunTiming:
     process: ``report_cli_s`` its wall time, ``report_cpu_s`` the CPU time of it and its
     workers (user + system, from ``RUSAGE_CHILDREN``: what the job costs the machine, less
     sensitive to other load than wall time), ``report_stage_s`` the report stage's wall time
-    as the CLI printed it.
+    as the CLI printed it, ``report_stages_s`` and ``report_stages_cpu_s`` every stage's wall
+    and CPU time per run as the CLI printed them (``{stage: (run 1, run 2, ...)}``; CPU of a
+    stage: the main process's plus that of the simulation workers, which count in
+    "simulate" when they end; see :attr:`asmplan.pipeline.RunResult.cpu_s`).
     """
 
     runs: int
@@ -238,13 +242,27 @@ class SeedRunTiming:
     report_cli_s: tuple[float, ...] = ()
     report_cpu_s: tuple[float, ...] = ()
     report_stage_s: tuple[float, ...] = ()
+    report_stages_s: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    report_stages_cpu_s: dict[str, tuple[float, ...]] = field(default_factory=dict)
+
+
+def cli_stage_times(stdout: str) -> tuple[dict[str, float], dict[str, float]]:
+    """Wall and CPU seconds per stage from ``asmplan run``'s last line, "results and report
+    in OUT/ (sequence 0.3 s, plan 0.5 s, simulate 7.1 s, report 3.0 s; CPU sequence 0.3 s,
+    ...)"; empty dicts when it is missing."""
+    m = re.search(r"results and report in .*\((.*)\)\s*$", stdout.strip())
+    if not m:
+        return {}, {}
+    wall_text, _, cpu_text = m.group(1).partition("; CPU ")
+    pattern = r"(sequence|plan|simulate|report) ([0-9.]+) s"
+    return ({k: float(v) for k, v in re.findall(pattern, wall_text)},
+            {k: float(v) for k, v in re.findall(pattern, cpu_text)})
 
 
 def run_seed_timing(runs: int = SEED_RUNS, log: Callable[[str], None] | None = None, *,
                     report_runs: int = SEED_REPORT_RUNS) -> SeedRunTiming:
     """Time the seed workstation at FAST without the report, and its whole job at BALANCED
     with the report (see :class:`SeedRunTiming`)."""
-    import re
     import resource
     import sys
 
@@ -277,6 +295,8 @@ def run_seed_timing(runs: int = SEED_RUNS, log: Callable[[str], None] | None = N
         say(f"seed workstation: CLI median {statistics.median(cli):.2f} s, imports "
             f"{statistics.median(imports):.2f} s, library {statistics.median(library):.2f} s")
         report_cli, report_cpu, report_stage = [], [], []
+        stages_wall: dict[str, list[float]] = {}
+        stages_cpu: dict[str, list[float]] = {}
         for _ in range(report_runs):
             before = resource.getrusage(resource.RUSAGE_CHILDREN)
             t0 = time.perf_counter()
@@ -286,8 +306,12 @@ def run_seed_timing(runs: int = SEED_RUNS, log: Callable[[str], None] | None = N
             report_cli.append(time.perf_counter() - t0)
             after = resource.getrusage(resource.RUSAGE_CHILDREN)
             report_cpu.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
-            stage = re.search(r"report ([0-9.]+) s\)", proc.stdout)
-            report_stage.append(float(stage.group(1)) if stage else math.nan)
+            wall_stages, cpu_stages = cli_stage_times(proc.stdout)
+            report_stage.append(wall_stages.get("report", math.nan))
+            for k, v in wall_stages.items():
+                stages_wall.setdefault(k, []).append(v)
+            for k, v in cpu_stages.items():
+                stages_cpu.setdefault(k, []).append(v)
             if proc.returncode != 0:
                 ok, failure = False, (f"asmplan run --fidelity balanced exited {proc.returncode}: "
                                       f"{proc.stderr.strip()[-300:]}")
@@ -296,7 +320,9 @@ def run_seed_timing(runs: int = SEED_RUNS, log: Callable[[str], None] | None = N
                 f"{statistics.median(report_cli):.2f} s wall, {statistics.median(report_cpu):.2f} s "
                 "CPU")
     return SeedRunTiming(runs, tuple(cli), tuple(imports), tuple(library), stages, ok, failure,
-                         report_runs, tuple(report_cli), tuple(report_cpu), tuple(report_stage))
+                         report_runs, tuple(report_cli), tuple(report_cpu), tuple(report_stage),
+                         {k: tuple(v) for k, v in stages_wall.items()},
+                         {k: tuple(v) for k, v in stages_cpu.items()})
 
 
 @dataclass(frozen=True)

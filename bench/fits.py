@@ -216,14 +216,16 @@ REFERENCE_DT_S = 1.0 / 8000.0
 
 
 def fits_reference_fidelity() -> Any:
-    """ACCURATE at :data:`REFERENCE_DT_S` (record interval kept at 4 ms)."""
+    """ACCURATE at :data:`REFERENCE_DT_S` (record interval kept at 4 ms), with no body put
+    to sleep (a reference models everything; :mod:`asmplan.sim.rest`)."""
     import dataclasses
 
     from asmplan.sim.fidelity import ACCURATE
 
     return dataclasses.replace(ACCURATE, name=f"reference (1/{round(1 / REFERENCE_DT_S)} s)",
                                dt_s=REFERENCE_DT_S,
-                               record_every_steps=max(1, round(0.004 / REFERENCE_DT_S)))
+                               record_every_steps=max(1, round(0.004 / REFERENCE_DT_S)),
+                               rest_window_s=0.0)
 
 
 @dataclass(frozen=True)
@@ -252,7 +254,6 @@ def run_seed_job(fidelity: str, report: bool = True) -> SeedJob:
     """``asmplan run`` (the bundled seed workstation) at ``fidelity`` in a subprocess, as a
     user runs it (``-j`` default: one process per core), timed from outside."""
     import json
-    import re
     import subprocess
     import sys
 
@@ -279,9 +280,10 @@ def run_seed_job(fidelity: str, report: bool = True) -> SeedJob:
                 steps.append((st.get("part", "?"), verdict,
                               float(o.get("final_axial_error_m", float("nan"))), float("nan")))
             warnings = tuple(w for w in doc.get("warnings", []) if "resolv" in w)
-        # "results and report in out/ (sequence 1.2 s, plan 2.2 s, simulate 37.3 s, report 12.7 s)"
-        for name, value in re.findall(r"(sequence|plan|simulate|report) ([0-9.]+) s", proc.stdout):
-            stages[name] = float(value)
+        # "results and report in out/ (sequence 1.2 s, ..., report 12.7 s; CPU sequence ...)"
+        from .cost import cli_stage_times
+
+        stages = cli_stage_times(proc.stdout)[0]
     return SeedJob(fidelity, proc.returncode, wall, stages, tuple(steps), warnings)
 
 

@@ -29,6 +29,23 @@ def format_arm(rows: Sequence[Any]) -> str:
     return fmt(rows)
 
 
+def _seed_stage_rows(t: SeedRunTiming) -> list[str]:
+    """Per-stage wall and CPU medians of the BALANCED job with the report (as the CLI prints
+    them; the simulation workers' CPU counts in "simulate")."""
+    if not t.report_stages_s:
+        return []
+    out = ["| stage (BALANCED job with the report) | wall, median | CPU, median |",
+           "| --- | ---: | ---: |"]
+    for k, v in t.report_stages_s.items():
+        cpu = t.report_stages_cpu_s.get(k, ())
+        out.append(f"| {k} | {statistics.median(v):.2f} s | "
+                   + (f"{statistics.median(cpu):.2f} s |" if cpu else "- |"))
+    return [*out, "", "Wall of the stages excludes starting Python and the imports; sequence, "
+                  "plan and simulate overlap (each step is simulated as soon as it is planned), "
+                  "so simulate's wall is what remains after planning. CPU: the main process's "
+                  "plus the simulation workers' (counted in simulate).", ""]
+
+
 def format_seed_timing(t: SeedRunTiming) -> str:
     """Markdown: medians and ranges of the seed workstation timings."""
     def row(name: str, v: Sequence[float]) -> str:
@@ -47,6 +64,7 @@ def format_seed_timing(t: SeedRunTiming) -> str:
                   row("`asmplan run --fidelity balanced` (new process), wall", t.report_cli_s),
                   row("the same, CPU of the process and its workers", t.report_cpu_s),
                   row("its report stage, wall (as the CLI prints it)", t.report_stage_s), "",
+                  *_seed_stage_rows(t),
                   f"{t.report_runs} runs, after the FAST runs. The machine is shared: wall time "
                   "rises with other load, CPU time much less."]
     return "\n".join(lines) + "\n"

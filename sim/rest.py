@@ -83,14 +83,13 @@ class RestKeeper:
 
     def tick(self, released: bool) -> None:
         """Check every candidate after a record row's physics step; ``released``: the held
-        part is placed and the fingers are open (a candidate too)."""
+        part is placed and the fingers are open (a candidate too). Bodies at rest that touch
+        each other are put to sleep together (Bullet wakes a sleeping body that touches an
+        awake one)."""
         w = self._world
-        carrying = not released
-        movers = {self._gripper, self._held} if carrying else {self._gripper}
+        movers = {self._gripper} if released else {self._gripper, self._held}
+        resting: set[int] = set()
         for b in self._bodies:
-            if b == self._held and carrying:
-                self._history[b].clear()
-                continue
             v, om = w.velocity(b)
             if b in self._asleep:
                 if not (np.any(v) or np.any(om)):
@@ -102,17 +101,28 @@ class RestKeeper:
             if float(np.linalg.norm(v)) > REST_SPEED_MPS:
                 hist.clear()
                 continue
-            if len(hist) < self._window_rows:
+            if b in movers or len(hist) < self._window_rows:
                 continue
             T0 = hist[0]
-            if not all(float(np.linalg.norm(T[:3, 3] - T0[:3, 3])) < self._d_rest
-                       and rotation_angle_rad(T0[:3, :3].T @ T[:3, :3]) < self._a_rest
-                       for T in hist):
-                continue
-            if movers & w.bodies_near(b, NEAR_MARGIN_M):
-                continue
+            if all(float(np.linalg.norm(T[:3, 3] - T0[:3, 3])) < self._d_rest
+                   and rotation_angle_rad(T0[:3, :3].T @ T[:3, :3]) < self._a_rest
+                   for T in hist):
+                resting.add(b)
+        if not resting:
+            return
+        near = {b: w.bodies_near(b, NEAR_MARGIN_M) for b in resting}
+        awake = set(self._bodies) - self._asleep
+        # a moving body near: stays awake; then so does every resting body touching an awake
+        # one that stays awake (until nothing changes)
+        sleepy = {b for b in resting if not movers & near[b]}
+        while True:
+            keep = {b for b in sleepy if not (near[b] & awake) <= sleepy}
+            if not keep:
+                break
+            sleepy -= keep
+        for b in sorted(sleepy):
             w.sleep(b, self._wake_speed)
             self._asleep.add(b)
-            hist.clear()
+            self._history[b].clear()
             name = w.body_name(b)
             self.slept[name] = self.slept.get(name, 0) + 1

@@ -118,5 +118,6 @@ def run(args: argparse.Namespace) -> int:
               file=out)
     else:
         print(f"{product.name}: every step succeeds at fidelity {result.fidelity.name}", file=out)
-    print(f"results and report in {args.out}/ ({times})", file=out)
+    cpu = ", ".join(f"{k} {v:.1f} s" for k, v in result.cpu_s.items())
+    print(f"results and report in {args.out}/ ({times}; CPU {cpu})", file=out)
     return result.exit_code
