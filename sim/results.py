@@ -30,6 +30,8 @@ def _clean(v: Any) -> Any:
     if isinstance(v, float):
         return v if math.isfinite(v) else None
     if isinstance(v, np.ndarray):
+        if v.dtype.kind in "biu" or (v.dtype.kind == "f" and bool(np.isfinite(v).all())):
+            return v.tolist()  # already JSON-safe: no per-element pass (records are large)
         return _clean(v.tolist())
     if isinstance(v, np.generic):
         return _clean(v.item())
