@@ -151,8 +151,8 @@ class Fidelity:
         1 mm is skipped by the solver until something comes near. 0 turns it off (FAST: its
         partners are static, and its metre units put the sleep residual above Bullet's
         wake threshold). BALANCED and ACCURATE: 0.1 s. On pinhole_station at BALANCED the
-        simulation's CPU time fell from 12.2 to X s with the same verdicts (the release and
-        retreat of a seated part and the transport phases with a resting partner).
+        CPU time in the physics steps fell from 12.2 to 9.8 s with the same verdicts and
+        final errors within 3.1 um (docs/physics.md, "Sleeping bodies at rest").
     rest_displacement_m : float
         Largest displacement (m; and that over 10 mm as a rotation) over ``rest_window_s``
         of a body at rest: 1 um at BALANCED and ACCURATE (the contact slop), i.e. a body
