@@ -108,10 +108,18 @@ def test_seed_section_times_the_workstation_through_the_cli_and_the_library() ->
     # and its CPU time (process and workers) was counted
     assert 0 < timing.report_stage_s[0] < timing.report_cli_s[0]
     assert timing.report_cpu_s[0] > 0.5  # at least the imports and the simulation
+    # every stage's wall and CPU time as the CLI printed them; the stages' CPU (main process
+    # and simulation workers) is part of the whole process tree's
+    assert set(timing.report_stages_s) == set(timing.report_stages_cpu_s) == {
+        "sequence", "plan", "simulate", "report"}
+    stage_cpu = sum(v[0] for v in timing.report_stages_cpu_s.values())
+    assert 0 < stage_cpu <= timing.report_cpu_s[0] + 0.1
+    assert timing.report_stages_cpu_s["simulate"][0] > 0.5  # the workers' CPU counts there
     text = b.format_markdown(b.BenchReport(quick=False, machine={}, seed=timing))
     assert "## The seed workstation end to end" in text
     assert "Every run succeeded." in text
     assert "BALANCED, with the report (target <= 5 s, 2 cores)" in text
+    assert "| stage (BALANCED job with the report) | wall, median | CPU, median |" in text
 
 
 def test_fits_section_counts_a_verdict_against_geometry_and_the_reference() -> None:
