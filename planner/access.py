@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..knowledge.model import Product
+from .arm_reach import ArmReach, ReachFailure
 from .grasp import GripLoad, iter_grasps
 
 if TYPE_CHECKING:
@@ -71,6 +72,11 @@ class AccessSettings:
     sample_step_m : float
         Spacing of the checked poses along the insertion and the retreat, m (a screening
         step: the motion planner proves the chosen motion exactly).
+    arm_reach : bool
+        With an arm in the cell (``resources.robot``), keep only grasps whose pick, lifted,
+        pre-insertion and seated TCP poses the arm can take (reach and joint limits,
+        :mod:`asmplan.planner.arm_reach`). Once no grasp is kept, the screening stops after
+        ``patience`` candidates in a row beyond the arm.
     """
 
     max_grasps: int = 24
@@ -81,6 +87,7 @@ class AccessSettings:
     finger_clearance_m: float = 3e-3
     contact_tolerance_m: float = 2e-5
     sample_step_m: float = 2e-3
+    arm_reach: bool = True
 
     def __post_init__(self) -> None:
         for name in ("max_grasps", "max_candidates", "patience", "surface_samples"):
@@ -110,6 +117,9 @@ class Access:
     below_table, meets_predecessors : int
         Candidates dropped because the fingers reach below the table top (at the start or
         the assembled pose), or because the gripper meets a part every order places first.
+    beyond_arm : int
+        Candidates dropped because the cell's arm cannot take one of their key TCP poses
+        (:mod:`asmplan.planner.arm_reach`); ``arm_failure`` says why for the best-ranked one.
     """
 
     part: str
@@ -117,6 +127,8 @@ class Access:
     examined: int
     below_table: int = 0
     meets_predecessors: int = 0
+    beyond_arm: int = 0
+    arm_failure: ReachFailure | None = None
 
     def reachable(self, present: frozenset[str] | set[str]) -> bool:
         return any(not (o & present) for o in self.options)
@@ -125,12 +137,25 @@ class Access:
         """Why no grasp of the part is free with ``present`` placed ("" when one is)."""
         if self.reachable(present):
             return ""
+        arm = self.arm_failure.text() if self.beyond_arm and self.arm_failure else ""
         if not self.options:
+            if arm:
+                return (f"the arm cannot do the step of {self.part} in any order: {arm}; of "
+                        f"{self.examined} grasp candidates screened, {self.beyond_arm} are "
+                        f"beyond the arm's reach or joint limits, {self.below_table} put the "
+                        f"fingers below the table top and {self.meets_predecessors} meet a part "
+                        "that must be placed before it")
             return (f"no grasp of {self.part} can be used in any order: of {self.examined} "
                     f"candidates screened, {self.below_table} put the fingers below the table "
                     f"top (at the start or the assembled pose) and {self.meets_predecessors} "
                     "meet a part that must be placed before it")
         met = sorted(set().union(*(o & present for o in self.options)))
+        if arm:
+            return (f"the arm cannot reach {self.part}: {arm} ({self.beyond_arm} of "
+                    f"{self.examined} grasp candidates screened beyond the arm's reach or "
+                    f"joint limits); every other grasp meets {', '.join(met)} or a part that "
+                    f"must precede {self.part} (at the seated pose, along the insertion or on "
+                    "the retreat)")
         return (f"the gripper cannot reach {self.part}: every grasp screened ({self.examined} "
                 f"candidates) meets {', '.join(met)} or a part that must precede "
                 f"{self.part} (at the seated pose, along the insertion or on the retreat)")
@@ -146,6 +171,7 @@ class GripperAccess:
     _scene: Any = None
     _parts: Any = None
     _cache: dict[tuple[Any, ...], Access] = field(default_factory=dict)
+    _arm: ArmReach | None = None
 
     def _setup(self) -> None:
         from ..parts.models import ProductGeometry
@@ -164,6 +190,9 @@ class GripperAccess:
         self._starts, _ = initial_layout(self.product, self._parts)
         poses = {n: self.product.T_world_assembled(n) for n in self.product.part_names}
         self._scene = Scene(self.product, self._parts, poses, ps.contact_tolerance_m)
+        robot = self.product.resources.robot
+        if self.settings.arm_reach and robot is not None and robot.urdf_path is not None:
+            self._arm = ArmReach(robot)
 
     def access(self, part: str, insertion: np.ndarray, pre_distance_m: float,
                required: frozenset[str] = frozenset()) -> Access:
@@ -210,11 +239,19 @@ class GripperAccess:
                             table_poses=(T_start, T_final), table_margin_m=margin,
                             stats=dropped)
         sets: list[frozenset[str]] = []
-        examined = below = before = 0
+        examined = below = before = beyond = 0
+        arm_failure: ReachFailure | None = None
         stale = 0  # candidates in a row, since one was kept, that gave no new minimal set
+        arm_run = 0  # candidates in a row beyond the arm
+        T_pre = T_final.copy()
+        T_pre[:3, 3] -= u * pre_distance_m
+        T_lift = T_start.copy()
+        T_lift[2, 3] += product.process.lift_height_m
         for g in itertools.islice(cands, s.max_candidates):
             if len(sets) >= s.max_grasps or stale >= s.patience:
                 break
+            if not sets and arm_run >= s.patience:
+                break  # candidate after candidate beyond the arm, none kept: a screening stops
             examined += 1
             stale += 1 if sets else 0
             scene.use_gripper(g, gripper)
@@ -238,6 +275,18 @@ class GripperAccess:
             if any(o <= met for o in sets):  # the segments only add parts: not minimal
                 sets.append(frozenset(met))
                 continue
+            if self._arm is not None:  # the arm at the step's key poses: only
+                # for grasps the gripper can use that may give a new minimal set
+                fail = self._arm.screen(part, (
+                    ("pick pose", T_start @ g.T_part_gripper),
+                    ("lifted pose", T_lift @ g.T_part_gripper),
+                    ("pre-insertion pose", T_pre @ g.T_part_gripper), ("seated pose", G)))
+                if fail is not None:
+                    beyond += 1
+                    arm_run += 1
+                    arm_failure = arm_failure or fail
+                    continue
+                arm_run = 0
             # the straight insertion (closed) and the retreat (open)
             for body, delta in ((GRIPPER_CLOSED, -u * pre_distance_m),
                                 (GRIPPER_OPEN, -G[:3, 2] * s.grasp_standoff_m)):
@@ -255,7 +304,7 @@ class GripperAccess:
                     break
         minimal = sorted({m for m in sets if not any(o < m for o in sets)},
                          key=lambda m: (len(m), sorted(m)))
-        return Access(part, tuple(minimal), examined, below, before)
+        return Access(part, tuple(minimal), examined, below, before, beyond, arm_failure)
 
 
 def _segment_hits(scene: Any, body: str, T: np.ndarray, delta: np.ndarray,

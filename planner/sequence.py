@@ -62,7 +62,7 @@ import networkx as nx
 import numpy as np
 
 from ..knowledge.model import Product
-from .access import GripperAccess
+from .access import AccessSettings, GripperAccess
 from .blocking import BlockingTable, GeometryOracle, blocking_table
 from .precedence import NoFeasibleSequenceError, PrecedenceConflictError, _fixture_names, derive_precedence
 from .sequence_search import (
@@ -99,12 +99,17 @@ class SequenceSettings:
     stability_risk_s : float
         Per part held by mates only (nothing under it), default 5 s.
     unreachable_s : float
-        Per step the gripper cannot do in that order (no screened grasp is free of the parts
-        already placed, :mod:`asmplan.planner.access`), default 600 s: such an order ranks
-        below every order the gripper can do, its reason kept, and is still tried last.
+        Per step the gripper or the arm cannot do in that order (no screened grasp is free
+        of the parts already placed and within the arm's reach and joint limits,
+        :mod:`asmplan.planner.access`, :mod:`asmplan.planner.arm_reach`), default 600 s:
+        such an order ranks below every order the cell can do, its reason kept, and is
+        still tried last.
     gripper_access : bool
         Screen every step for gripper access (default True; False: the order ignores the
-        gripper and ``unreachable`` stays 0).
+        gripper and the arm, and ``unreachable`` stays 0).
+    arm_reach : bool
+        With an arm in the cell, screen the screened grasps' key TCP poses for the arm's
+        reach and joint limits too (default True; only with ``gripper_access``).
     top_k : int
         Number of ranked sequences to return.
     max_states : int
@@ -133,6 +138,7 @@ class SequenceSettings:
     stability_risk_s: float = 5.0
     unreachable_s: float = 600.0
     gripper_access: bool = True
+    arm_reach: bool = True
     top_k: int = 5
     max_states: int = 20_000
     beam_width: int = 64
@@ -401,7 +407,8 @@ def plan_sequence(product: Product, oracle: GeometryOracle | None = None,
     t1 = time.perf_counter()
     timings["blocking"] = t1 - t0
     graph = derive_precedence(product, table)
-    access = GripperAccess(product, getattr(oracle, "geometry", None)) \
+    access = GripperAccess(product, getattr(oracle, "geometry", None),
+                           AccessSettings(arm_reach=settings.arm_reach)) \
         if settings.gripper_access else None
     c = _Compiled(product, table, graph, settings, access)
     t2 = time.perf_counter()

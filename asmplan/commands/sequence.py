@@ -94,9 +94,9 @@ def print_table(plan: SequencePlan, n_parts: int) -> None:
                           for t in COST_TERMS)
         order = " > ".join(f"{st.part}({st.insertion_label})" for st in s.steps)
         print(f"{s.rank:>4} {s.cost_s:>8.2f} {values}  {order}")
-        for st in s.steps:
+        for k, st in enumerate(s.steps, start=1):
             if st.unreachable:
-                print(f"{'':>14}{st.part}: {st.unreachable}")
+                print(f"{'':>14}step {k} ({st.part}): {st.unreachable}")
     print("precedence (before -> after: why):")
     base_after: dict[str, list[str]] = {}
     for e in plan.edges():

@@ -1,0 +1,93 @@
+"""Sequences that know the arm (issue 20 item 3, issue 18): an order whose step needs a pose
+the arm cannot take ranks below the orders the arm can do, with the distance and the reach."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from asmplan.knowledge.loader import load_product
+from asmplan.parts.models import ProductGeometry
+from asmplan.planner.fcl_oracle import FclOracle
+from asmplan.planner.sequence import SequenceSettings, plan_sequence
+
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "arm"
+# every term but reach equal: only the names' order (cover < drawer) would rank the orders
+EVEN = SequenceSettings(top_k=4, reorientation_s=0.0, direction_change_s=0.0,
+                        travel_s_per_m=0.0)
+
+
+@pytest.fixture(scope="module")
+def drawer():
+    product = load_product(FIXTURES / "drawer_reach.yaml")
+    return product, FclOracle(product, ProductGeometry(product))
+
+
+def _mm(text: str, what: str) -> float:
+    m = re.search(rf"{what} of drawer is (\d+) mm from the arm's shoulder, reach (\d+) mm", text)
+    assert m, text
+    return float(m.group(1)), float(m.group(2))
+
+
+def test_the_order_whose_step_the_arm_cannot_reach_ranks_below_with_its_reason(drawer):
+    """With the cover on, the drawer slides in along -x from 80 mm further out: beyond the
+    stated 650 mm. Ranked by the names alone (every other term equal), that order would come
+    first; with the arm screened it ranks below the other, carrying the distance and reach."""
+    product, oracle = drawer
+    blind = plan_sequence(product, oracle, dataclasses.replace(EVEN, arm_reach=False))
+    assert blind.best.order == ("cabinet", "cover", "drawer")
+    assert all(s.terms["unreachable"] == 0 for s in blind.sequences)
+
+    sp = plan_sequence(product, oracle, EVEN)
+    first, second = sp.sequences
+    assert first.order == ("cabinet", "drawer", "cover")
+    assert first.terms["unreachable"] == 0 and all(st.unreachable == "" for st in first.steps)
+    assert second.order == ("cabinet", "cover", "drawer")
+    assert second.terms["unreachable"] == 1
+    step = second.steps[2]
+    assert step.part == "drawer" and step.insertion_label == "-x"
+    dist, reach = _mm(step.unreachable, "pre-insertion pose")
+    assert reach == 650 and dist > reach
+    assert step.unreachable.startswith("the arm cannot reach drawer")
+    # with the default weights the reachable order was first already; it stays first
+    default = plan_sequence(product, oracle, SequenceSettings(top_k=4))
+    assert default.best.order == ("cabinet", "drawer", "cover")
+    assert default.sequences[1].terms["unreachable"] == 1
+
+
+def test_the_reported_distance_is_the_flange_from_the_shoulder(drawer):
+    """The screened distance is |flange - shoulder| (computed here from the base pose, the
+    mounting and the shoulder without the planner): it grows by the 80 mm approach along x
+    from the seated pose, so it lies within [d_seated, d_seated + 80 mm] for the same grasp."""
+    from asmplan.planner.arm import ArmModel
+    from asmplan.planner.plan import ArmSettings
+
+    product, oracle = drawer
+    sp = plan_sequence(product, oracle, EVEN)
+    dist, _ = _mm(sp.sequences[1].steps[2].unreachable, "pre-insertion pose")
+    arm = ArmModel(product.resources.robot, ArmSettings())
+    shoulder = (arm.T_world_base @ np.append(arm.shoulder_base, 1.0))[:3]
+    seat = product.T_world_assembled("drawer")[:3, 3]
+    pre = seat + np.array([0.08, 0.0, 0.0])
+    # the flange is within the tool's length (mounting + TCP offset) of the TCP, which is
+    # within the part's half-size of its centre
+    tool = float(np.linalg.norm(product.resources.robot.T_flange_tcp[:3, 3])) + 0.1
+    assert np.linalg.norm(pre - shoulder) - tool <= dist / 1e3 <= (
+        np.linalg.norm(pre - shoulder) + tool)
+
+
+def test_a_tray_part_beyond_reach_carries_the_arm_reason_in_every_order():
+    """far_tray: the peg's pick pose is about 1 m from the shoulder (reach 700 mm): no order
+    can do its step, and the sequence says so with the pose, the distance and the reach."""
+    product = load_product(FIXTURES / "far_tray.yaml")
+    sp = plan_sequence(product, FclOracle(product, ProductGeometry(product)))
+    step = next(st for st in sp.best.steps if st.part == "peg")
+    assert sp.best.terms["unreachable"] == 1
+    m = re.search(r"the arm cannot do the step of peg in any order: (pick|lifted) pose of peg "
+                  r"is (\d+) mm from the arm's shoulder, reach 700 mm", step.unreachable)
+    assert m, step.unreachable
+    assert 900 < float(m.group(2)) < 1200
