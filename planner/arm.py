@@ -58,6 +58,18 @@ CARRIED = "@carried"
 _TWO_PI = 2.0 * math.pi
 
 
+try:  # numpy's own LAPACK solve without its Python wrapper (the same routine, same bits):
+    # np.linalg.solve spends most of a 6x6 solve checking types and setting error states
+    from numpy.linalg import _umath_linalg
+
+    def _solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """``np.linalg.solve(A, b)`` for a float (6, 6) ``A`` that cannot be singular
+        (``J J^T`` plus a positive damping)."""
+        return _umath_linalg.solve1(A, b, signature="dd->d")
+except ImportError:  # pragma: no cover - another numpy layout
+    _solve_spd = np.linalg.solve
+
+
 def _wrap(a: np.ndarray) -> np.ndarray:
     return (np.asarray(a) + math.pi) % _TWO_PI - math.pi
 
@@ -147,6 +159,17 @@ class ArmModel:
             ids = self._frame_ids[tuple(links)] = [self.model.getFrameId(n) for n in links]
         return [self.T_world_base @ self.data.oMf[i].homogeneous for i in ids]
 
+    def link_and_tcp_poses(self, q: np.ndarray, links: Sequence[str]
+                           ) -> tuple[list[np.ndarray], np.ndarray]:
+        """:meth:`link_poses` and :meth:`fk` at ``q`` from one kinematics pass."""
+        pin.framesForwardKinematics(self.model, self.data, np.asarray(q, float))
+        ids = self._frame_ids.get(tuple(links))
+        if ids is None:
+            ids = self._frame_ids[tuple(links)] = [self.model.getFrameId(n) for n in links]
+        oMf, base = self.data.oMf, self.T_world_base
+        tcp = base @ oMf[self.flange_id].homogeneous @ self.T_flange_tcp
+        return [base @ oMf[i].homogeneous for i in ids], tcp
+
     def flange_distance_m(self, T_world_tcp: np.ndarray) -> float:
         """Distance from the shoulder to the flange that puts the TCP at ``T_world_tcp``, m."""
         p = (self.T_base_world @ T_world_tcp @ self.T_tcp_flange)[:3, 3]
@@ -208,7 +231,7 @@ class ArmModel:
             if it == 20 and ep + er > 1e-4:  # not converging from this seed
                 return q, False
             J = pin.Jlog6(M) @ pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)
-            dq = J.T @ np.linalg.solve(J @ J.T + lam_I, err)
+            dq = J.T @ _solve_spd(J @ J.T + lam_I, err)
             n2 = float(dq @ dq)
             if n2 > 0.25:  # trust region: big steps cross branches
                 dq *= 0.5 / math.sqrt(n2)
@@ -279,7 +302,7 @@ class ArmModel:
                     break
                 if Jinv is None or size > 1e-2 * last:  # slow: a fresh damped Newton step
                     J = pin.Jlog6(M) @ jac(model, data, x, fid, local)
-                    dq = J.T @ np.linalg.solve(J @ J.T + lam_I, err)
+                    dq = J.T @ _solve_spd(J @ J.T + lam_I, err)
                     Jinv = None
                 else:
                     dq = Jinv @ err

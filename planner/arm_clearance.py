@@ -285,17 +285,21 @@ class ArmClearance:
         rho = self.rho(tool_radius_m)
         last = len(Q) - 1
 
-        def bodies_of(k: int) -> tuple:
-            phase = names[int(phase_idx[k])]
+        def bodies_of_phase(i: int) -> tuple:
+            phase = names[i]
             setup = self._phase_setup(phase)
             where = "" if setup.carried else ("start" if phase in ("approach", "transfer")
                                               else "final")
             return setup.carried, setup.gripper, where, phase in tool_env_phases
 
-        starts = [0, *[k for k in range(1, len(Q)) if bodies_of(k) != bodies_of(k - 1)]]
+        # the bodies depend on the phase only: one lookup per phase, not per sample
+        pidx = np.asarray(phase_idx[:len(Q)])
+        per_phase = {int(i): bodies_of_phase(int(i)) for i in np.unique(pidx)}
+        moves = (np.flatnonzero(pidx[1:] != pidx[:-1]) + 1).tolist()
+        starts = [0, *[k for k in moves if per_phase[int(pidx[k])] != per_phase[int(pidx[k - 1])]]]
         for b, k0 in enumerate(starts):
             k1 = starts[b + 1] if b + 1 < len(starts) else last
-            carried, gripper, where, tool_env = bodies_of(k0)
+            carried, gripper, where, tool_env = per_phase[int(pidx[k0])]
             setup = _Phase(names[int(phase_idx[k0])], carried, gripper)
             if carried:
                 env = list(obstacles)
@@ -305,7 +309,7 @@ class ArmClearance:
             tool = [gripper] + ([part] if carried else [])
             items = self._items(setup, part, tool_env)
             keys = [(a if a != part else CARRIED, b if b != part else CARRIED) for a, b in items]
-            plan = self._group_plan(tuple(keys), rho)
+            plan = self._group_plan_cached(tuple(keys), rho, tool_radius_m)
             of = plan.of
             boxes = _BoxTier(scene, [*self.bodies, *tool], env, items)
             until = np.full(len(items), -math.inf)  # certified up to here
@@ -315,8 +319,7 @@ class ArmClearance:
                 k = min(int(u), last - 1) if last > 0 else 0
                 f = u - k
                 q = Q[k] + f * (Q[k + 1] - Q[k]) if last > 0 else Q[0]
-                T_tcp = self.arm.fk(q)
-                poses = self.arm.link_poses(q, self.links)
+                poses, T_tcp = self.arm.link_and_tcp_poses(q, self.links)
                 poses.append(T_tcp)
                 if carried:
                     poses.append(T_tcp @ T_tcp_part)
@@ -327,8 +330,14 @@ class ArmClearance:
                 # than half used: fewer states in all); box gaps everywhere else
                 exact = close & ((until <= u) | (until - u <= 0.5 * (until - since)))
                 fresh = ~close | exact
-                for i in np.flatnonzero(exact):
-                    d[i] = self._exact(items[i], env)
+                todo = np.flatnonzero(exact)
+                if len(todo):  # each body of the pairs posed once per state, not per pair
+                    world = scene.world
+                    for body in {x for i in todo if items[i][1] for x in items[i]}:
+                        world.set_pose(body, self._poses[body])
+                for i in todo:
+                    a, b = items[i]
+                    d[i] = self._exact(items[i], env) if b == "" else world.distance(a, b)
                 checked += 1
                 if float(d[fresh].min(initial=math.inf)) <= s.check_step_m:
                     hit = self._contacts(setup, env, part, tool_env=tool_env)
@@ -462,6 +471,18 @@ class ArmClearance:
         u_cross = np.where(hit, pos_f[gi, j - 1] + frac * (pos_f[gi, j] - pos_f[gi, j - 1]),
                            float(k1))
         return np.where(live, np.minimum(np.maximum(u_leg, u_cross), float(k1)), float(k1))
+
+    def _group_plan_cached(self, keys: tuple[tuple[str, str], ...],
+                           rho: dict[str, np.ndarray], tool_radius_m: float) -> _Groups:
+        """:meth:`_group_plan`, kept per (clearances, tool radius): ``rho`` depends on the
+        tool radius only, and a plan's stretches repeat the same clearances step after
+        step."""
+        cache = self.__dict__.setdefault("_group_plans", {})
+        key = (keys, float(tool_radius_m))
+        hit = cache.get(key)
+        if hit is None:
+            hit = cache[key] = self._group_plan(keys, rho)
+        return hit
 
     def _group_plan(self, keys: tuple[tuple[str, str], ...], rho: dict[str, np.ndarray]
                     ) -> _Groups:

@@ -144,7 +144,7 @@ class ArmPlanner(ArmClearance):
         """
         phase_idx = traj.phase_indices_at(traj.t_s)
         names = [p.name for p in traj.phases]
-        variants = {False: (traj, T_tcp_part), True: (_turned(traj), TURN @ T_tcp_part)}
+        variants = _Variants(traj, T_tcp_part)  # the turned tool's built when first tried
         self.check_pose_either(index, part, "pre-grasp pose", traj.T_world_gripper[0])
         cands = self._candidates(traj.T_world_gripper[0])
         n_branches = sum(1 for _, turned in cands if not turned)
@@ -475,6 +475,21 @@ class ArmPlanner(ArmClearance):
         flat = int(np.argmin(margins))
         kk, j = divmod(flat, 6)
         return Q, (float(w.min()), float(margins[kk, j]), arm.joint_names[j], float(err.max()))
+
+
+class _Variants(dict):
+    """``{False: (traj, T_tcp_part), True: (turned traj, TURN @ T_tcp_part)}``, the turned
+    variant made when first asked for (a trajectory's validation is not free)."""
+
+    def __init__(self, traj: Trajectory, T_tcp_part: np.ndarray) -> None:
+        super().__init__({False: (traj, T_tcp_part)})
+        self._traj, self._T = traj, T_tcp_part
+
+    def __missing__(self, turned: bool) -> tuple[Trajectory, np.ndarray]:
+        if not turned:  # pragma: no cover - set in __init__
+            raise KeyError(turned)
+        value = self[True] = (_turned(self._traj), TURN @ self._T)
+        return value
 
 
 def _turned(traj: Trajectory) -> Trajectory:
