@@ -64,6 +64,10 @@ class ArmSettings:
     check_step_m : float
         Arm collision check: where links come closer than this to anything, states are
         checked at this point travel.
+    plan_tool_turns : bool
+        Choose the tool turn (the half-turn grasp symmetry) over the whole sequence, least
+        joint travel between steps (:mod:`asmplan.planner.arm_turns`); False: step by step,
+        each nearest the arm's last state.
     """
 
     ik_tolerance_m: float = 1e-6
@@ -74,10 +78,16 @@ class ArmSettings:
     joint_limit_margin_rad: float = 0.01
     min_manipulability_ratio: float = 0.01
     check_step_m: float = 5e-4
+    plan_tool_turns: bool = True
 
     def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
+            if f.name == "plan_tool_turns":
+                if not isinstance(v, bool):
+                    raise ValueError(f"ArmSettings.plan_tool_turns: expected true or false, "
+                                     f"found {v!r}")
+                continue
             if f.name in ("seed", "joint_limit_margin_rad"):
                 ok = isinstance(v, int | float) and v >= 0
             else:

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..knowledge.model import Product
 from ..parts.models import ProductGeometry
+from .arm_turns import retune_turns
 from .errors import (
     PlanningError,
 )
@@ -132,16 +133,24 @@ def _plan_order(product: Product, settings: PlannerSettings, choice: SequenceCho
     planner = MotionPlanner(product, settings, parts)
     steps: list[Step] = []
     times: list[StepTiming] = []
+    # with the tool turns chosen over the whole sequence (the arm's, planner/arm_turns.py),
+    # a step is final only once every step is planned: it is reported then
+    defer = planner.arm is not None and settings.arm.plan_tool_turns
     for k, name in enumerate(sequence):
         if progress is not None:
             progress(k, len(sequence), name, "start")
         for step, timing in planner.plan_steps(len(steps), name, choice.insertions.get(name)):
             steps.append(step)
             times.append(timing)
-            if on_step is not None:
+            if on_step is not None and not defer:
                 on_step(tuple(sequence), step, planner.start_poses)
         if progress is not None:
             progress(k, len(sequence), name, "done")
+    if defer:
+        steps = retune_turns(planner, steps)
+        if on_step is not None:
+            for step in steps:
+                on_step(tuple(sequence), step, planner.start_poses)
     note = choice.note
     if failed_before:
         note += (f"; {failed_before} better-ranked order{'s' if failed_before > 1 else ''} "
