@@ -67,7 +67,7 @@ try:  # numpy's own LAPACK solve without its Python wrapper (the same routine, s
         (``J J^T`` plus a positive damping)."""
         return _umath_linalg.solve1(A, b, signature="dd->d")
 except ImportError:  # pragma: no cover - another numpy layout
-    _solve_spd = np.linalg.solve
+    _solve_spd = np.linalg.solve  # type: ignore[assignment]
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:

@@ -336,8 +336,8 @@ class ArmClearance:
                     for body in {x for i in todo if items[i][1] for x in items[i]}:
                         world.set_pose(body, self._poses[body])
                 for i in todo:
-                    a, b = items[i]
-                    d[i] = self._exact(items[i], env) if b == "" else world.distance(a, b)
+                    ia, ib = items[i]
+                    d[i] = self._exact(items[i], env) if ib == "" else world.distance(ia, ib)
                 checked += 1
                 if float(d[fresh].min(initial=math.inf)) <= s.check_step_m:
                     hit = self._contacts(setup, env, part, tool_env=tool_env)

@@ -154,7 +154,7 @@ class ArmReach:
         if isinstance(err, JointLimitError):
             return JointLimitError(-1, part, what, err.joint, err.value_rad, err.lower_rad,
                                    err.upper_rad, err.T_world_tcp)
-        return ArmPathError(-1, part, what, str(err.reason), err.T_world_tcp)
+        return ArmPathError(-1, part, what, str(getattr(err, "reason", err)), err.T_world_tcp)
 
     def screen(self, part: str, poses: Sequence[tuple[str, np.ndarray]]) -> ReachFailure | None:
         """The first of a step's key TCP poses ``(name, (4, 4))`` the arm cannot take, or

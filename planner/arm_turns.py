@@ -59,15 +59,22 @@ def best_turns(variants: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]],
     cost = [0.0] * len(variants[0])
     back: list[list[int]] = []
     for k in range(1, len(variants)):
-        new, arg = [], []
+        new: list[float] = []
+        arg: list[int] = []
         for start, _end in variants[k]:
-            best = min(range(len(variants[k - 1])),
-                       key=lambda u, s=start: (round(cost[u] + move_s(variants[k - 1][u][1], s),
-                                                     9), u))
-            new.append(cost[best] + move_s(variants[k - 1][best][1], start))
+            via = [cost[u] + move_s(variants[k - 1][u][1], start)
+                   for u in range(len(variants[k - 1]))]
+            best = 0
+            for u in range(1, len(via)):  # ties: the lower index
+                if round(via[u], 9) < round(via[best], 9):
+                    best = u
+            new.append(via[best])
             arg.append(best)
         cost, back = new, [*back, arg]
-    last = min(range(len(cost)), key=lambda v: (round(cost[v], 9), v))
+    last = 0
+    for v in range(1, len(cost)):
+        if round(cost[v], 9) < round(cost[last], 9):
+            last = v
     choice = [last]
     for arg in reversed(back):
         choice.append(arg[choice[-1]])
@@ -136,8 +143,12 @@ def retune_turns(planner: MotionPlanner, steps: Sequence[Step]) -> list[Step]:
         out = apply_turns(planner, steps, choice)
     except ArmError:
         return steps
-    old = sum(steps[k].arm.transfer_s for k in idx)  # type: ignore[union-attr]
-    new = sum(out[k].arm.transfer_s for k in idx)  # type: ignore[union-attr]
+    old = new = 0.0
+    for k in idx:
+        a, b = steps[k].arm, out[k].arm
+        assert a is not None and b is not None
+        old += a.transfer_s
+        new += b.transfer_s
     if new >= old - 1e-9:
         return steps
     ap.last_q = np.asarray(out[idx[-1]].arm.q_rad)[-1].copy()  # type: ignore[union-attr]

@@ -48,10 +48,39 @@ COST_TERMS: tuple[str, ...] = ("reorientations", "direction_changes", "tool_chan
 @dataclass
 class _Label:
     cost: float
-    key: tuple[int, ...]  # name ranks of the order, for lexicographic ties
+    key: Any  # name ranks of the order (tuple of int), for lexicographic ties
     order: tuple[int, ...]
     dirs: tuple[int, ...]
     terms: tuple[float, ...]
+    # the exhaustive search's labels are chained instead (:func:`_materialize`): the label
+    # they extend, the step's terms, part and direction; order, dirs and terms are empty
+    # until materialized, and the key is the ranks as one base-n integer (the same order as
+    # the tuples: the labels compared have equal lengths)
+    parent: _Label | None = None
+    step: tuple[float, ...] | None = None
+    part: int = -1
+    dir: int = -1
+
+
+def _materialize(lab: _Label) -> _Label:
+    """``lab`` with its order, directions and terms filled in along its chain of parents
+    (the terms summed in step order, the same additions as summing them step by step)."""
+    if lab.parent is None:
+        return lab
+    chain = []
+    node: _Label = lab
+    while node.parent is not None:
+        chain.append(node)
+        node = node.parent
+    order, dirs, acc = list(node.order), list(node.dirs), node.terms
+    for x in reversed(chain):
+        assert x.step is not None
+        order.append(x.part)
+        dirs.append(x.dir)
+        acc = tuple(a + b for a, b in zip(acc, x.step, strict=True))
+    lab.order, lab.dirs, lab.terms = tuple(order), tuple(dirs), acc
+    lab.parent = lab.step = None
+    return lab
 
 
 class _Compiled:
@@ -349,7 +378,7 @@ class _Compiled:
         return [self.names[i] for i in range(self.n) if done >> i & 1]
 
 
-def _key(lab: _Label) -> tuple[float, tuple[int, ...]]:
+def _key(lab: _Label) -> tuple[float, Any]:
     return (round(lab.cost, 9), lab.key)
 
 
@@ -395,7 +424,7 @@ def _exhaustive(c: _Compiled, k: int) -> tuple[list[_Label], int, int, list[tupl
     # the last step, so a successor adds the same cost to all of them (sorted lists stay
     # sorted) and each new bucket is a k-way merge of its sources
     zero = (0.0,) * len(COST_TERMS)
-    labels: dict[tuple[int, int], list[_Label]] = {(0, -1): [_Label(0.0, (), (), (), zero)]}
+    labels: dict[tuple[int, int], list[_Label]] = {(0, -1): [_Label(0.0, 0, (), (), zero)]}
     for layer in layers:
         pending: dict[tuple[int, int], list[tuple[list[_Label], float, tuple[float, ...], int]]] = {}
         for done in layer:
@@ -405,7 +434,7 @@ def _exhaustive(c: _Compiled, k: int) -> tuple[list[_Label], int, int, list[tupl
                 labs = labels.pop((done, last), None)
                 if not labs:
                     continue
-                dlast = labs[0].dirs[-1] if labs[0].dirs else -1
+                dlast = labs[0].dir
                 for p, d in succ[done]:
                     T = done | 1 << p
                     if T in alive:
@@ -421,8 +450,9 @@ def _exhaustive(c: _Compiled, k: int) -> tuple[list[_Label], int, int, list[tupl
                 _c, _k, i, j = heapq.heappop(heap)
                 labs, delta, t, d = sources[i]
                 src = labs[j]
-                out.append(_Label(src.cost + delta, (*src.key, c.rank[p]), (*src.order, p),
-                                  (*src.dirs, d), tuple(a + b for a, b in zip(src.terms, t, strict=True))))
+                # chained: order, dirs and terms are made for the labels kept only
+                out.append(_Label(src.cost + delta, src.key * c.n + c.rank[p], (), (), (),
+                                  src, t, p, d))
                 if j + 1 < len(labs):
                     following = labs[j + 1]
                     heapq.heappush(heap, (round(following.cost + delta, 9), following.key, i,
@@ -430,6 +460,7 @@ def _exhaustive(c: _Compiled, k: int) -> tuple[list[_Label], int, int, list[tupl
             labels[(T, p)] = out
     final = [lab for last in range(c.n) for lab in labels.get((c.full, last), [])]
     final.sort(key=_key)
+    final = [_materialize(lab) for lab in final[:k]]
     # necessary pairs: a before b in every feasible sequence
     violated = [0] * c.n  # violated[b]: bits a such that some feasible state has b without a
     for done in alive:
