@@ -269,7 +269,7 @@ class _Compiled:
     def reachable(self, p: int, d: int, done: int) -> bool:
         """Whether some screened grasp of part p (inserted along direction d) is free of
         every part in ``done`` (always True for fixtured parts or without screening)."""
-        if self.access is None or self.product.is_fixtured(self.names[p]):
+        if self.access is None or self.tool[p] != "gripper":  # fixtured: always
             return True
         masks = self._reach.get((p, d))
         if masks is None:
