@@ -157,9 +157,10 @@ class ArmPlanner(ArmClearance):
                                        T_start, T_final, tool_radius_m)
             transfer = self._transfer(index, part, Q[0], obstacles, T_start, T_final,
                                       tool_radius_m, ompl)
-            cycle = retime(tr, Q, self.arm.vmax, self.arm.amax)[0].duration_s + transfer[1]
-            return cycle, (tr, Q, stats, sol, names, checked, n_branches, False, transfer,
-                           turned)
+            timed = retime(tr, Q, self.arm.vmax, self.arm.amax)
+            return timed[0].duration_s + transfer[1], (tr, Q, stats, sol, names, checked,
+                                                       n_branches, False, transfer, turned,
+                                                       timed)
 
         for i, (sol, turned) in enumerate(cands):
             try:
@@ -253,8 +254,11 @@ class ArmPlanner(ArmClearance):
     def _finish(self, traj: Trajectory, Q: np.ndarray, stats: tuple[float, float, str, float],
                 sol: IkSolution, names: list[str], checked: int, n_branches: int,
                 joint_space: bool, transfer: tuple[np.ndarray, float, int],
-                turned: bool = False) -> tuple[Trajectory, ArmMotion]:
-        new_traj, scales = retime(traj, Q, self.arm.vmax, self.arm.amax)
+                turned: bool = False,
+                timed: tuple[Trajectory, np.ndarray] | None = None
+                ) -> tuple[Trajectory, ArmMotion]:
+        new_traj, scales = timed if timed is not None else retime(traj, Q, self.arm.vmax,
+                                                                   self.arm.amax)
         self.last_q = Q[-1].copy()
         motion = ArmMotion(
             joint_names=self.arm.joint_names, q_rad=Q, branch=sol.branch,
