@@ -17,6 +17,10 @@ dropped (no order can help it). In any partial assembly ``S`` the step is reacha
 some grasp's set is disjoint from ``S``, a set operation like the blocking table, so the
 search stays exact and fast; only the minimal sets are kept.
 
+With an arm in the cell, each grasp that could give a new set is also screened for the arm's
+reach and joint limits at the step's key TCP poses (:mod:`asmplan.planner.arm_reach`); a
+grasp the arm cannot hold is dropped, and the best-ranked one's reason is kept.
+
 This is a screening model, not the motion planner: it looks at a bounded number of grasps
 (``max_grasps``), only at the assembled end of the step (start poses are fixed whatever the
 order), and straight segments only. An order it finds unreachable is therefore ranked last

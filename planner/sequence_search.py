@@ -12,7 +12,6 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import networkx as nx
@@ -32,6 +31,7 @@ from .precedence import (
     _stable_alone,
     derive_precedence,
 )
+from .sequence_labels import _key, _Label, _materialize
 
 if TYPE_CHECKING:
     from .sequence import SequenceSettings
@@ -45,44 +45,6 @@ COST_TERMS: tuple[str, ...] = ("reorientations", "direction_changes", "tool_chan
 # ---------------------------------------------------------------------------------------------
 # Search
 # ---------------------------------------------------------------------------------------------
-@dataclass
-class _Label:
-    cost: float
-    key: Any  # name ranks of the order (tuple of int), for lexicographic ties
-    order: tuple[int, ...]
-    dirs: tuple[int, ...]
-    terms: tuple[float, ...]
-    # the exhaustive search's labels are chained instead (:func:`_materialize`): the label
-    # they extend, the step's terms, part and direction; order, dirs and terms are empty
-    # until materialized, and the key is the ranks as one base-n integer (the same order as
-    # the tuples: the labels compared have equal lengths)
-    parent: _Label | None = None
-    step: tuple[float, ...] | None = None
-    part: int = -1
-    dir: int = -1
-
-
-def _materialize(lab: _Label) -> _Label:
-    """``lab`` with its order, directions and terms filled in along its chain of parents
-    (the terms summed in step order, the same additions as summing them step by step)."""
-    if lab.parent is None:
-        return lab
-    chain = []
-    node: _Label = lab
-    while node.parent is not None:
-        chain.append(node)
-        node = node.parent
-    order, dirs, acc = list(node.order), list(node.dirs), node.terms
-    for x in reversed(chain):
-        assert x.step is not None
-        order.append(x.part)
-        dirs.append(x.dir)
-        acc = tuple(a + b for a, b in zip(acc, x.step, strict=True))
-    lab.order, lab.dirs, lab.terms = tuple(order), tuple(dirs), acc
-    lab.parent = lab.step = None
-    return lab
-
-
 class _Compiled:
     """The planning problem as bit masks (part i <-> bit i, product order)."""
 
@@ -376,10 +338,6 @@ class _Compiled:
 
     def bits(self, done: int) -> list[str]:
         return [self.names[i] for i in range(self.n) if done >> i & 1]
-
-
-def _key(lab: _Label) -> tuple[float, Any]:
-    return (round(lab.cost, 9), lab.key)
 
 
 # Complexity above C (radon): the exact layered search with k best labels per state merged through a
