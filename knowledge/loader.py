@@ -25,7 +25,21 @@ from .consistency import find_inconsistencies
 from .errors import InputIssue, ProductError, did_you_mean
 from .fit_rules import FitRule
 from .materials import Material, builtin_materials
-from .model import Finger, Fixture, Gripper, Press, Process, Product, Resources, Robot, Table
+from .model import (
+    Finger,
+    Fixture,
+    Gripper,
+    Part,
+    Press,
+    Primitive,
+    Process,
+    Product,
+    RegraspFixture,
+    RegraspSeat,
+    Resources,
+    Robot,
+    Table,
+)
 from .product_schema import DEFAULT_FIT, DOCUMENT, FORMAT_VERSION, LENGTH_UNITS
 from .robot import JointLimit, UrdfError, read_urdf_arm, resolve_model
 from .schema import INVALID, ListOf
@@ -133,6 +147,7 @@ class _Builder(PartsBuilder, MatesBuilder):
         if resources is not None:
             for i, fx in enumerate(resources.fixtures):
                 self.check_part_ref(fx.holds, ("resources", "fixtures", i, "holds"))
+            self.check_regrasp_fixtures(resources, parts)
             known = [f.name for f in resources.gripper.fingers]
             for i, raw in enumerate(raw_parts):
                 h = raw.get("handling") if isinstance(raw, dict) else None
@@ -175,7 +190,8 @@ class _Builder(PartsBuilder, MatesBuilder):
                           if val is not None and val is not INVALID})
 
     def build_resources(self, v: dict[str, Any]) -> Resources | None:
-        if any(v.get(k) is INVALID for k in ("gripper", "table", "fixtures", "robot", "press", "units")):
+        if any(v.get(k) is INVALID for k in ("gripper", "table", "fixtures", "robot", "press", "units",
+                                             "regrasp")):
             return None
         # the cell's own units (resources.units) were applied while reading it (_CellMap)
         units = v.get("units") or {}
@@ -200,7 +216,45 @@ class _Builder(PartsBuilder, MatesBuilder):
         fixtures = tuple(Fixture(f["name"], f["holds"], f["kind"]) for f in v["fixtures"])
         robot = build_robot(v["robot"], self.base_dir, self.err) if v["robot"] else None
         press = Press(float(v["press"]["max_force"])) if v.get("press") else None
-        return Resources(gripper, table, fixtures, robot, press=press)
+        regrasp = tuple(RegraspFixture(
+            f["name"], _pose(f["pose"]),
+            tuple(Primitive(c["shape"], _pose(c["pose"]), size_m=tuple(c.get("size") or (0, 0, 0)),
+                            diameter_m=c.get("diameter") or 0.0, length_m=c.get("length") or 0.0)
+                  for c in f["geometry"]),
+            tuple(RegraspSeat(h["part"], _pose(h["pose"])) for h in f["holds"]),
+            float(f["friction"])) for f in v["regrasp"] or ())
+        return Resources(gripper, table, fixtures, robot, press=press, regrasp=regrasp)
+
+    def check_regrasp_fixtures(self, resources: Resources, parts: dict[str, Part]) -> None:
+        """``resources.regrasp``: unique names (not a part's or the table's), every seat a
+        known part that is not fixtured, each part held once per fixture, and the fixture on
+        the table (its lowest point at the table top, z = 0, within 0.01 mm)."""
+        fixtured = {f.holds for f in resources.fixtures} | {n for n, p in parts.items()
+                                                            if p.fixtured}
+        seen: dict[str, int] = {}
+        for i, fx in enumerate(resources.regrasp):
+            where = ("resources", "regrasp", i)
+            if fx.name in seen or fx.name in self.known_names or fx.name == "table":
+                what = (f"regrasp[{seen[fx.name]}]" if fx.name in seen else
+                        "the table" if fx.name == "table" else "a part")
+                self.err((*where, "name"), f'expected a unique fixture name, found "{fx.name}" '
+                         f"(also {what})")
+            seen.setdefault(fx.name, i)
+            held: set[str] = set()
+            for k, seat in enumerate(fx.seats):
+                at = (*where, "holds", k, "part")
+                if not self.check_part_ref(seat.part, at):
+                    continue
+                if seat.part in fixtured:
+                    self.err(at, f'expected a part the robot moves, found "{seat.part}", which is '
+                             "fixtured in its assembled pose")
+                if seat.part in held:
+                    self.err(at, f'expected each part once per fixture, found "{seat.part}" again')
+                held.add(seat.part)
+            low = _lowest_z(fx)
+            if abs(low) > 1e-5:
+                self.err((*where, "pose"), f"expected the fixture on the table (its lowest point "
+                         f"at z = 0), found its lowest point at z = {low * 1e3:.3f} mm")
 
     def check_cell_scale(self, v: dict[str, Any], own_units: bool) -> None:
         """A gripper stroke or a table out of any real cell's range means the product's length
@@ -217,6 +271,24 @@ class _Builder(PartsBuilder, MatesBuilder):
         if not 0.05 <= size <= 20.0:  # 20 m: a long transfer line (a 2,000-part tray layout is 10.6 m)
             self.err(("resources", "table", "size"), f"expected a table of 50 mm to 20 m, found "
                      f"{size * 1e3:.4g} mm across{hint}")
+
+
+def _lowest_z(fx: RegraspFixture) -> float:
+    """Lowest world z of a fixture's primitives (box corners, cylinder rims, spheres), m."""
+    low = math.inf
+    for p in fx.primitives:
+        T = fx.T_world_fixture @ p.T_part_shape
+        if p.shape == "box":
+            h = np.asarray(p.size_m, float) / 2
+            z = T[2, 3] - float(np.abs(T[2, :3]) @ h)
+        elif p.shape == "cylinder":
+            ax = T[2, 2]
+            z = (T[2, 3] - abs(ax) * p.length_m / 2
+                 - math.sqrt(max(0.0, 1 - ax * ax)) * p.diameter_m / 2)
+        else:
+            z = T[2, 3] - p.diameter_m / 2
+        low = min(low, float(z))
+    return low
 
 
 def load_default_fits(path: Path | str) -> tuple[FitRule, ...]:

@@ -346,12 +346,63 @@ class Press:
 
 
 @dataclass(frozen=True, eq=False)
+class RegraspSeat:
+    """Where a :class:`RegraspFixture` holds one part: ``T_fixture_part`` (4, 4), the part's
+    pose in the fixture frame, m."""
+
+    part: str
+    T_fixture_part: np.ndarray
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "T_fixture_part",
+                           readonly_array(self.T_fixture_part, (4, 4), "T_fixture_part"))
+
+
+@dataclass(frozen=True, eq=False)
+class RegraspFixture:
+    """A static fixture on the table that holds a part in an orientation the table cannot
+    (a shaft standing upright in a sleeve holder, a cylinder in a V-block), used to put the
+    part down and grasp it again (a regrasp, :mod:`asmplan.planner.regrasp`).
+
+    Parameters
+    ----------
+    name : str
+    T_world_fixture : (4, 4) float array
+        The fixture frame on the table, m.
+    primitives : tuple of Primitive
+        Its solid (boxes, cylinders, spheres), fixture frame.
+    seats : tuple of RegraspSeat
+        The parts it holds and where.
+    friction : float
+    """
+
+    name: str
+    T_world_fixture: np.ndarray
+    primitives: tuple[Primitive, ...]
+    seats: tuple[RegraspSeat, ...]
+    friction: float = 0.5
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "T_world_fixture",
+                           readonly_array(self.T_world_fixture, (4, 4), "T_world_fixture"))
+
+    def T_world_seat(self, part: str) -> np.ndarray | None:
+        """Where the fixture holds ``part``, world frame (4, 4), m; None if it does not."""
+        for s in self.seats:
+            if s.part == part:
+                return np.asarray(self.T_world_fixture @ s.T_fixture_part)
+        return None
+
+
+@dataclass(frozen=True, eq=False)
 class Resources:
     gripper: Gripper
     table: Table
     fixtures: tuple[Fixture, ...] = ()
     robot: Robot | None = None
     press: Press | None = None
+    regrasp: tuple[RegraspFixture, ...] = ()
+    """Declared regrasp fixtures (``resources.regrasp``)."""
 
 
 @dataclass(frozen=True, eq=False)

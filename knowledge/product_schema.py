@@ -223,6 +223,17 @@ class _CellMap(Map):
             ctx.unit_names.update(names)
 
 
+REGRASP_SEAT = Map({
+    "part": Field(Str(expected="a part name"), required=True),
+    "pose": Field(POSE, required=True),
+}, name="a seat (the part and its pose in the fixture frame)")
+REGRASP_FIXTURE = Map({
+    "name": Field(Str(expected="a fixture name"), required=True),
+    "pose": Field(POSE, required=True),
+    "geometry": Field(ListOf(CHILD, min_len=1), required=True),
+    "friction": Field(Num(nonnegative=True, maximum=10.0), default=0.5),
+    "holds": Field(ListOf(REGRASP_SEAT, min_len=1), required=True),
+}, name="a regrasp fixture (name, pose, geometry, holds)")
 RESOURCES = _CellMap({
     "units": Field(Map({"length": Field(Str(tuple(LENGTH_UNITS)), default=None),
                         "mass": Field(Str(tuple(MASS_UNITS)), default=None)}, name="units of the cell"),
@@ -238,6 +249,7 @@ RESOURCES = _CellMap({
     "robot": Field(ROBOT),
     "press": Field(Map({"max_force": Field(Num(positive=True), required=True)},
                        name="a press (its max_force in N)")),
+    "regrasp": Field(ListOf(REGRASP_FIXTURE), default=[]),
 }, name="resources")
 MATERIAL = Map({"density": Field(Num("density", positive=True), required=True),
                 "friction": Field(Num(nonnegative=True, maximum=10.0), required=True),

@@ -1,12 +1,12 @@
-"""Collision models of the cell: the table and the gripper (palm and two fingers), shared by the
-planner, the simulator and the report.
+"""Collision models of the cell: the table, the declared regrasp fixtures and the gripper (palm
+and two fingers), shared by the planner, the simulator and the report.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..knowledge.model import Gripper, Table
+from ..knowledge.model import Gripper, RegraspFixture, Table
 from .pieces import CollisionModel, ConvexPiece
 
 HALF_TURN = np.diag([-1.0, -1.0, 1.0, 1.0])
@@ -49,3 +49,27 @@ def table_model(table: Table) -> CollisionModel:
     T[2, 3] = -size[2] / 2
     return CollisionModel("exact", (ConvexPiece("box", T, half_extents_m=size / 2,
                                                 name="table"),))
+
+
+def regrasp_fixture_body(name: str) -> str:
+    """The body name of a declared regrasp fixture in the planner's and the simulator's
+    worlds (and in their messages): ``"fixture:<name>"``."""
+    return f"fixture:{name}"
+
+
+def regrasp_fixture_model(fixture: RegraspFixture) -> CollisionModel:
+    """A declared regrasp fixture's solid as exact pieces (boxes, cylinders, spheres) in the
+    fixture frame (place it at ``fixture.T_world_fixture``)."""
+    pieces = []
+    for k, p in enumerate(fixture.primitives):
+        T = np.asarray(p.T_part_shape, float)
+        name = f"{fixture.name}/{k}"
+        if p.shape == "box":
+            pieces.append(ConvexPiece("box", T, half_extents_m=np.asarray(p.size_m, float) / 2,
+                                      name=name))
+        elif p.shape == "cylinder":
+            pieces.append(ConvexPiece("cylinder", T, radius_m=p.diameter_m / 2,
+                                      length_m=p.length_m, name=name))
+        else:
+            pieces.append(ConvexPiece("sphere", T, radius_m=p.diameter_m / 2, name=name))
+    return CollisionModel("exact", tuple(pieces))

@@ -6,7 +6,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..knowledge.model import Product
+from ..parts.cell import regrasp_fixture_model
 from .partdata import PartData
+from .scene import piece_boxes
 
 
 def initial_layout(product: Product, parts: dict[str, PartData]
@@ -46,6 +48,10 @@ def initial_layout(product: Product, parts: dict[str, PartData]
                                   "below the table top")
             poses[p.name] = T
             boxes.append(footprint(p.name, T))
+    for fx in product.resources.regrasp:  # the cell's regrasp fixtures stand on the table
+        pts = piece_boxes(regrasp_fixture_model(fx)).reshape(-1, 3)
+        w = pts @ fx.T_world_fixture[:3, :3].T + fx.T_world_fixture[:3, 3]
+        boxes.append(np.stack([w.min(axis=0), w.max(axis=0)]))
     size = np.asarray(product.resources.table.size_m, float)
     gap = 0.02
     for p in product.parts:

@@ -11,7 +11,12 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..knowledge.model import Gripper, Product
-from ..parts.cell import gripper_model, table_model
+from ..parts.cell import (
+    gripper_model,
+    regrasp_fixture_body,
+    regrasp_fixture_model,
+    table_model,
+)
 from ..parts.collision import CollisionWorld, Contact, FclShapes, circumscribed_prism_points
 from ..parts.pieces import CollisionModel, ConvexPiece
 from .errors import (
@@ -147,6 +152,11 @@ class Scene:
         self.corners: dict[str, np.ndarray] = {}  # body-frame box corners (8, 3)
         self._boxes: dict[int, tuple[CollisionModel, np.ndarray]] = {}
         self._add(TABLE, table_model(product.resources.table), np.eye(4))
+        self.cell: list[str] = [TABLE]  # the static bodies of the cell: table, regrasp fixtures
+        for fx in product.resources.regrasp:
+            self._add(regrasp_fixture_body(fx.name), regrasp_fixture_model(fx),
+                      np.asarray(fx.T_world_fixture, float))
+            self.cell.append(regrasp_fixture_body(fx.name))
         self.poses = {n: np.array(T, float) for n, T in initial_poses.items()}
         for name in product.part_names:
             self._add(name, parts[name].model, self.poses[name])
@@ -205,8 +215,9 @@ class Scene:
         self._gripper_key = key
 
     def obstacles(self, moving: str) -> list[str]:
-        """Everything but the moving part and the gripper bodies."""
-        return [TABLE, *[n for n in self.product.part_names if n != moving]]
+        """Everything but the moving part and the gripper bodies (the table, the regrasp
+        fixtures and the other parts)."""
+        return [*self.cell, *[n for n in self.product.part_names if n != moving]]
 
     # -- tiers ------------------------------------------------------------------------------
     def box_at(self, name: str, T: np.ndarray) -> np.ndarray:
