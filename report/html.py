@@ -156,13 +156,30 @@ def _margins(step: Any, res: Any, gripper: Any) -> list[dict[str, Any]]:
     return rows
 
 
+def _in_fixture(product: Any, part: str, T_world_part: np.ndarray) -> str:
+    """"regrasp fixture <name>" when ``T_world_part`` is a seat of one of the cell's
+    regrasp fixtures for ``part``, else ""."""
+    for fx in product.resources.regrasp:
+        T = fx.T_world_seat(part)
+        if T is not None and np.abs(T - T_world_part).max() <= 1e-9:
+            return f"regrasp fixture {fx.name}"
+    return ""
+
+
 def _process_sheet(inp: ReportInputs, step: Any) -> dict[str, Any]:
     """One table per step a cell engineer can hand on: what, from where to where, how held,
     how hard, how fast, and each phase's duration and clamp force."""
     product = inp.product
+    start = _in_fixture(product, step.part, step.T_world_start)
+    picked_again = any(s.kind == "regrasp" and s.part == step.part and s.index < step.index
+                       for s in (inp.plan.steps if inp.plan is not None else ()))
     rows: list[tuple[str, str]] = [("part", step.part), ("operation", step.kind),
-                                   ("pick from", product.part(step.part).start_location
-                                    if step.kind != "fixture" else "fixture")]
+                                   ("pick from", "fixture" if step.kind == "fixture" else
+                                    start or ("table (where the regrasp put it)" if picked_again
+                                              else product.part(step.part).start_location))]
+    if step.kind == "regrasp":
+        rows.append(("put into", _in_fixture(product, step.part, step.T_world_final)
+                     or "table, in another stable orientation"))
     mass = inp.geometry.mass_properties(step.part).mass_kg
     rows.append(("mass", f"{mass * 1e3:.1f} g"))
     for m in (mm for mm in product.mates if mm.name in step.mates):

@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 
 from ..knowledge.model import Product
-from ..parts.cell import gripper_model
+from ..parts.cell import gripper_model, regrasp_fixture_model
 from ..parts.pieces import CollisionModel
 from ..planner.plan import Plan, Step
 from .camera import Camera, SceneItem, exploded, fit_camera
@@ -31,6 +31,7 @@ GRIPPER_RGBA = (0.25, 0.27, 0.30, 1.0)
 ARM_RGBA = (0.92, 0.92, 0.94, 1.0)
 HELD_RGBA = (0.95, 0.55, 0.10, 1.0)
 TABLE_RGBA = (0.86, 0.84, 0.80, 1.0)
+FIXTURE_RGBA = (0.50, 0.52, 0.56, 1.0)  # the cell's regrasp fixtures
 WAITING_RGBA = (0.78, 0.78, 0.78, 1.0)  # parts still on the tray
 PATH_RGBA = (0.10, 0.35, 0.85, 1.0)  # the planned path of the part's centre (transport)
 INSERT_PATH_RGBA = (0.85, 0.10, 0.10, 1.0)  # the part's centre while it is lowered/inserted
@@ -175,8 +176,19 @@ class Views:
                 if s.index > after_index and s.kind != "fixture"]
 
     def placed_items(self, plan: Plan, before_index: int) -> list[SceneItem]:
-        """Parts of the steps before ``before_index`` at their assembled poses."""
-        return [self.part_item(s.part, s.T_world_final) for s in plan.steps if s.index < before_index]
+        """Parts of the steps before ``before_index`` at their assembled poses (a regrasped
+        part where its regrasp put it), and the cell's regrasp fixtures."""
+        return [*self.fixture_items(),
+                *(self.part_item(s.part, s.T_world_final) for s in plan.steps
+                  if s.index < before_index)]
+
+    def fixture_items(self) -> list[SceneItem]:
+        """The cell's declared regrasp fixtures (``resources.regrasp``), in grey."""
+        if not hasattr(self, "_fixture_meshes"):
+            self._fixture_meshes = [(f"fixture:{fx.name}", pieces_mesh(regrasp_fixture_model(fx)),
+                                     np.asarray(fx.T_world_fixture, float))
+                                    for fx in self.product.resources.regrasp]
+        return [SceneItem(m, T, FIXTURE_RGBA, name=n) for n, m, T in self._fixture_meshes]
 
     def part_centre_path_m(self, step: Step) -> tuple[np.ndarray, np.ndarray]:
         """The planned path of the held part's centre: (transport points, insertion points),

@@ -30,6 +30,10 @@ Roles
     contact, never miss one).
 ``table``
     The work table (top face z = 0), static, always present.
+``fixture``
+    A declared regrasp fixture of the cell (``resources.regrasp``, ``fixture:<name>``),
+    static, always present (:mod:`asmplan.sim.cell_fixtures`). A part put into it or picked
+    from it rests in it; no tray nest is built under a part a fixture carries.
 ``nest``
     A static tray nest under the held part when it does not rest on the table with its
     largest downward face (e.g. pins pointing down hold it above the table): boxes under that
@@ -119,6 +123,7 @@ from .bodies import (
     transform_points,
 )
 from .bullet import BulletWorld
+from .cell_fixtures import carried_by_fixture, fixture_bodies
 from .fidelity import Fidelity
 from .gripper import GripperSpec
 from .nest import tray_nest
@@ -126,9 +131,11 @@ from .nest import tray_nest
 if TYPE_CHECKING:
     from ..parts.models import ProductGeometry
 
-Role = Literal["held", "mate", "touching", "support", "obstacle", "table", "nest"]
-ROLES: tuple[str, ...] = ("held", "mate", "touching", "support", "obstacle", "table", "nest")
-REQUIRED_ROLES: tuple[str, ...] = ("held", "mate", "touching", "support", "table", "nest")
+Role = Literal["held", "mate", "touching", "support", "obstacle", "table", "fixture", "nest"]
+ROLES: tuple[str, ...] = ("held", "mate", "touching", "support", "obstacle", "table", "fixture",
+                          "nest")
+REQUIRED_ROLES: tuple[str, ...] = ("held", "mate", "touching", "support", "table", "fixture",
+                                   "nest")
 """Roles a step cannot do without (obstacles are there to catch deviations)."""
 
 _DETAIL = {"coarse": 0, "convex": 1, "exact": 2}
@@ -294,7 +301,7 @@ class StepScene:
     @property
     def parts(self) -> tuple[str, ...]:
         """Names of the product parts in the scene."""
-        return tuple(b.name for b in self.bodies if b.role not in ("table", "nest"))
+        return tuple(b.name for b in self.bodies if b.role not in ("table", "fixture", "nest"))
 
     def summary(self) -> dict[str, Any]:
         """JSON-safe description of the selection (see docs/results-format.md)."""
@@ -400,7 +407,7 @@ def step_scene(step: Step, state: AssemblyState, product: Product, geometry: Pro
         raise ValueError(f"state: expected a pose for every part, found none for "
                          f"{sorted(missing)}")
     sel = _Selection(step, state, product, geometry, fidelity, settings or SceneSettings())
-    bodies = [sel.table_body()]
+    bodies = [sel.table_body(), *sel.fixture_bodies()]
     nest, held_body = sel.held_bodies()
     bodies += nest
     partners = sel.partners()
@@ -452,6 +459,12 @@ class _Selection:
         return SceneBody("table", "table", False, "box", np.eye(4), tm.pieces,
                          "work table (top face z = 0), static", friction=float(self.table.friction))
 
+    def fixture_bodies(self) -> list[SceneBody]:
+        """The cell's declared regrasp fixtures, static."""
+        return [SceneBody(f.name, "fixture", False, "box", f.T_world_body, f.pieces,
+                          "regrasp fixture of the cell (resources.regrasp), static",
+                          friction=f.friction) for f in fixture_bodies(self.product)]
+
     def held_bodies(self) -> tuple[list[SceneBody], SceneBody]:
         """The held part's nest (when it does not rest on the table) and the held part."""
         held, step = self.held, self.step
@@ -460,7 +473,12 @@ class _Selection:
         if note:
             held_reason += f": {note}"
         bodies = []
-        nest = tray_nest(self.geometry, held, step.T_world_start, held_model.pieces, self.s)
+        carrier = carried_by_fixture(self.product, self.geometry, held, step.T_world_start,
+                                     self.s.touch_tolerance_m)
+        nest = None if carrier is not None else tray_nest(
+            self.geometry, held, step.T_world_start, held_model.pieces, self.s)
+        if carrier is not None:
+            held_reason += f"; starts in {carrier}"
         if nest is not None:
             pieces, T_nest, desc = nest
             bodies.append(SceneBody(f"nest:{held}", "nest", False, "box", T_nest, pieces,
@@ -622,7 +640,8 @@ class _Selection:
               else {"friction": float(product.part(other).friction)})
         out = [SceneBody(other, "obstacle", dyn, model.level, self.poses[other],
                          model.pieces, reason, distance_m=d, **kw)]
-        other_nest = (None if fixt or other in self.placed else
+        other_nest = (None if fixt or other in self.placed or carried_by_fixture(
+            product, geometry, other, self.poses[other], self.s.touch_tolerance_m) else
                       tray_nest(geometry, other, self.poses[other], model.pieces, self.s))
         if other_nest is not None:
             pieces, T_nest, desc = other_nest
