@@ -355,11 +355,14 @@ class MotionPlanner:
         for where, T_part in (("start pose", T_start), ("assembled pose", T_final)):
             T = T_part @ g.T_part_gripper
             # the gripper is made of boxes: its lowest point is exact without FCL
-            if float((span @ T[2, :3] + T[2, 3]).min()) < margin:
-                return where, [CollidingPair(GRIPPER_SPAN, TABLE)]
+            z = (span @ T[2, :3] + T[2, 3]).reshape(-1, 8).min(axis=1)
+            if float(z.min()) < margin:
+                piece = "palm" if int(np.argmin(z)) >= 2 else "open fingers"
+                return f"{where} ({piece})", [CollidingPair(GRIPPER_SPAN, TABLE)]
             hit = scene.hits(GRIPPER_SPAN, T, obstacles)
             if hit:
-                return where, [CollidingPair(GRIPPER_SPAN, o) for o in hit]
+                return (f"{where} ({self._gripper_pieces(g, T, hit)})",
+                        [CollidingPair(GRIPPER_SPAN, o) for o in hit])
             d, who = scene.closest([(GRIPPER_SPAN, T)], obstacles, margin)
             if d < margin:
                 return (f"{where} (closer than the position tolerance "
@@ -375,6 +378,18 @@ class MotionPlanner:
         if scene.hits(GRIPPER_OPEN, T_start @ g.T_part_gripper, [part]):
             return "grasp (open fingers on the part)", [CollidingPair(GRIPPER_OPEN, part)]
         return "", []
+
+    def _gripper_pieces(self, g: Grasp, T_world_tcp: np.ndarray, hit: list[str]) -> str:
+        """Which of the gripper's pieces (the open fingers with the space they sweep closing,
+        or the palm behind them) the deepest contacts with ``hit`` lie in."""
+        world = self.scene.world
+        world.set_pose(GRIPPER_SPAN, T_world_tcp)
+        half_length = float(self.product.gripper_for(g.part).finger_size_m[2]) / 2
+        found = set()
+        for c in world.contacts([GRIPPER_SPAN], hit, self.scene.tolerance_m):
+            z = float((invert(T_world_tcp) @ np.append(c.point_m, 1.0))[2])
+            found.add("palm" if z < -half_length - 1e-9 else "open fingers")
+        return " and ".join(sorted(found)) or "open fingers"
 
     def _check_insertion(self, index: int, part: str, spec: InsertionSpec, T_pre: np.ndarray,
                          T_final: np.ndarray, obstacles: list[str]) -> float:
