@@ -1,0 +1,169 @@
+"""Declared regrasp fixtures (issue 18): the gearbox's shaft stands in a sleeve holder to be
+picked by its head, its cover is presented on a pedestal, and the whole gearbox plans; the
+planner keeps the cheaper of a table regrasp and a fixture; a fixture step simulates."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from asmplan.knowledge.loader import load_product
+from asmplan.parts.models import ProductGeometry
+from asmplan.planner.errors import NoGraspError
+from asmplan.planner.motion import MotionPlanner
+from asmplan.planner.partdata import part_data
+from asmplan.planner.plan import PlannerSettings
+from asmplan.planner.product import plan_product
+
+PRODUCTS = Path(__file__).resolve().parents[1] / "fixtures" / "products"
+GEARBOX = PRODUCTS / "gearbox.yaml"
+
+
+def _planner(product, settings=None):
+    settings = settings or PlannerSettings()
+    return MotionPlanner(product, settings, part_data(product, settings, ProductGeometry(product)))
+
+
+@pytest.fixture(scope="module")
+def gearbox_plan():
+    product = load_product(GEARBOX)
+    geometry = ProductGeometry(product)
+    return product, geometry, plan_product(product, geometry).plan
+
+
+def test_gearbox_plans_end_to_end(gearbox_plan):
+    """Every part of the 11-part gearbox is planned; the shaft goes through its stand, the
+    bearings through a table regrasp, the cover is pinched at its 8 mm edge on its pedestal."""
+    product, _, plan = gearbox_plan
+    assert sorted(plan.sequence) == sorted(product.part_names)
+    kinds: dict[str, list[str]] = {}
+    for s in plan.steps:
+        kinds.setdefault(s.part, []).append(s.kind)
+    assert kinds["housing"] == ["fixture"]
+    assert kinds["gear"] == ["place"] and kinds["spacer"] == ["place"]
+    assert all(kinds[f"dowel_{k}"] == ["insert"] for k in range(1, 5))
+    assert kinds["cover"] == ["insert"]
+    for name in ("bearing_1", "bearing_2", "shaft"):
+        assert kinds[name] == ["regrasp", "insert"], name
+    assert len(plan.steps) == 14
+    order = plan.sequence
+    for before, after in (("bearing_1", "shaft"), ("gear", "shaft"), ("spacer", "shaft")):
+        assert order.index(before) < order.index(after)
+    assert all(order.index(f"dowel_{k}") < order.index("cover") for k in range(1, 5))
+    # the shaft: put into the stand's seat, picked again there by its head along its axis
+    put, pick = [s for s in plan.steps if s.part == "shaft"]
+    seat = product.resources.regrasp[0].T_world_seat("shaft")
+    np.testing.assert_allclose(put.T_world_final, seat, atol=1e-12)
+    np.testing.assert_array_equal(pick.T_world_start, put.T_world_final)
+    assert "put into regrasp fixture shaft_stand" in put.notes[-1]
+    assert "from regrasp fixture shaft_stand" in pick.start_note
+    approach = pick.T_world_final[:3, :3] @ pick.grasp.approach_axis_part
+    np.testing.assert_allclose(approach, [1, 0, 0], atol=1e-9)  # along the shaft, from the head
+    assert pick.grasp.width_m == pytest.approx(24e-3, abs=1e-4)  # across the 24 mm head
+    # the bearings: on the table, on an end face
+    for name in ("bearing_1", "bearing_2"):
+        put = next(s for s in plan.steps if s.part == name and s.kind == "regrasp")
+        assert put.notes[-1].startswith("put down on a free area of the table")
+        assert abs(abs((put.T_world_final[:3, :3] @ [0, 0, 1])[2]) - 1) < 1e-9
+    cover = plan.step("cover")
+    assert cover.grasp.width_m == pytest.approx(8e-3, abs=1e-4)
+    assert cover.start_note == "given: cover_rest"
+
+
+def test_shaft_has_no_table_regrasp_and_says_so_without_its_stand():
+    """Without the stand no way exists: the shaft cannot stand on the table (a 15 mm tip or
+    a 24 mm head under a 145 mm shaft tips over within 10 deg), and the failure says both."""
+    product = load_product(GEARBOX)
+    bare = dataclasses.replace(product, resources=dataclasses.replace(
+        product.resources, regrasp=tuple(f for f in product.resources.regrasp
+                                         if f.name != "shaft_stand")))
+    planner = _planner(bare)
+    k = 0
+    for name in ("housing", "gear", "spacer", "bearing_1"):
+        k += len(planner.plan_steps(k, name))
+    with pytest.raises(NoGraspError) as info:
+        planner.plan_steps(k, "shaft")
+    reasons = info.value.reasons
+    assert "regrasp: no stable orientation other than the start pose's with a free area of " \
+           "the table to put the part down" in reasons
+    assert "regrasp: no declared regrasp fixture holds this part (resources.regrasp)" in reasons
+
+
+def test_the_neighbour_that_blocks_the_open_fingers_is_named():
+    """bearing_2 lies 6 mm from the shaft's head on the tray: grasps whose open fingers meet
+    the head are rejected naming the shaft and the fingers; another grasp is found."""
+    product = load_product(GEARBOX)
+    planner = _planner(product, PlannerSettings(regrasp=False))
+    planner.plan_steps(0, "housing")
+    with pytest.raises(NoGraspError) as info:  # no grasp holds it on the tray and in the seat
+        planner.plan_steps(1, "bearing_2")
+    assert any(re.fullmatch(r"\d+ candidates: the gripper hits shaft at the start pose "
+                            r"\(open fingers\)", r) for r in info.value.reasons), \
+        info.value.reasons
+    steps = _planner(product).plan_steps(1, "bearing_2")  # with the regrasp it plans
+    assert [s.kind for s, _ in steps] == ["regrasp", "insert"]
+
+
+SLEEVE_HOLDER = """\
+  regrasp:
+    - name: holder
+      pose: {xyz: [%s, %s, 0]}
+      geometry:
+        - {shape: box, size: [40, 40, 10], pose: {xyz: [0, 0, 5]}}
+      holds:
+        - {part: sleeve, pose: {xyz: [0, 0, 30]}}     # upright on the plate
+"""
+
+
+def test_the_cheaper_of_table_and_fixture_is_kept(tmp_path):
+    """guide_sleeve with a declared stand 150 mm off: both ways work; the plan keeps the one
+    whose two steps take less time (here the table spot beside the tray pose: 12.75 against
+    14.21 s) and says what the other costs."""
+    where = (150, -120)
+    text = (PRODUCTS / "guide_sleeve.yaml").read_text()
+    text = text.replace("  fixtures: [{name: vise, holds: block}]",
+                        "  fixtures: [{name: vise, holds: block}]\n"
+                        + SLEEVE_HOLDER % tuple(map(str, where)))
+    path = tmp_path / "sleeve_with_holder.yaml"
+    path.write_text(text)
+    product = load_product(path)
+    plan = plan_product(product, ProductGeometry(product)).plan
+    put, pick = plan.steps[1], plan.steps[2]
+    assert (put.kind, pick.kind) == ("regrasp", "insert")
+    m = re.fullmatch(r"regrasp (on the table|through a regrasp fixture): ([\d.]+) s for both "
+                     r"steps, the shorter cycle time \(regrasp (on the table|through a regrasp "
+                     r"fixture): ([\d.]+) s\)", put.notes[-1])
+    assert m, put.notes
+    chosen, other = float(m.group(2)), float(m.group(4))
+    assert chosen == pytest.approx(put.cycle_time_s + pick.cycle_time_s, abs=0.006)
+    assert chosen <= other
+    assert m.group(1) != m.group(3)
+    in_fixture = np.abs(put.T_world_final - product.resources.regrasp[0].T_world_seat(
+        "sleeve")).max() < 1e-9
+    assert in_fixture == (m.group(1) == "through a regrasp fixture")
+
+
+@pytest.mark.slow
+def test_shaft_put_into_its_stand_simulates(gearbox_plan):
+    """The shaft's regrasp step at FAST: carried from the tray and lowered tip first into the
+    stand's pocket (0.15 mm play a side), where it stands within the position tolerance; the
+    stand is a static body of the step's scene and no tray nest is built under the shaft."""
+    from asmplan.sim.fidelity import FAST
+    from asmplan.sim.scene import select_scene
+    from asmplan.sim.simulate import simulate_step
+
+    product, geometry, plan = gearbox_plan
+    k = next(s.index for s in plan.steps if s.part == "shaft" and s.kind == "regrasp")
+    scene = select_scene(plan, k, product, geometry, FAST)
+    assert scene.body("fixture:shaft_stand").role == "fixture"
+    assert not scene.body("fixture:shaft_stand").dynamic
+    result = simulate_step(plan, k, product, geometry, FAST)
+    assert result.outcome.success, result.outcome.reasons
+    assert result.outcome.final_position_error_m < product.process.position_tolerance_m
+    pick = select_scene(plan, k + 1, product, geometry, FAST)
+    assert "nest:shaft" not in pick.names()
+    assert "starts in fixture:shaft_stand" in pick.body("shaft").reason
