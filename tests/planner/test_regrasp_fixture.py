@@ -108,6 +108,33 @@ def test_the_neighbour_that_blocks_the_open_fingers_is_named():
     assert [s.kind for s, _ in steps] == ["regrasp", "insert"]
 
 
+def test_auto_layout_keeps_the_bearing_clear_of_the_shaft(tmp_path):
+    """Without their tray poses, bearing_2 and the shaft are laid out 20 mm apart (clear of
+    the cell's fixtures too) and bearing_2 plans with the shaft still waiting beside it."""
+    from asmplan.planner.layout import initial_layout
+
+    text = GEARBOX.read_text()
+    lines = [ln for ln in text.splitlines()
+             if not (ln.strip().startswith("start:") and ("[-90, 180" in ln or "[0, 180" in ln))]
+    path = tmp_path / "gearbox_auto.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    product = load_product(path)
+    planner = _planner(product)
+    _, notes = initial_layout(product, planner.parts)
+    assert notes["shaft"].startswith("no start pose given") and \
+        notes["bearing_2"].startswith("no start pose given")
+    boxes = {n: planner.scene.world.aabb(n) for n in ("shaft", "bearing_2")}
+    gap = np.maximum(boxes["shaft"][0] - boxes["bearing_2"][1],
+                     boxes["bearing_2"][0] - boxes["shaft"][1])[:2].max()
+    assert gap >= 20e-3 - 1e-9
+    for fx in planner.scene.cell[1:]:
+        f = planner.scene.world.aabb(fx)
+        for n, b in boxes.items():
+            assert np.any(b[0, :2] >= f[1, :2]) or np.any(f[0, :2] >= b[1, :2]), (n, fx)
+    planner.plan_steps(0, "housing")
+    assert [s.kind for s, _ in planner.plan_steps(1, "bearing_2")] == ["regrasp", "insert"]
+
+
 SLEEVE_HOLDER = """\
   regrasp:
     - name: holder
