@@ -86,6 +86,22 @@ class InsertionSpec:
     radial_clearance_min_m: float
 
 
+def mate_engagement_m(product: Product, m: Mate, parts: dict[str, PartData] | None = None
+                      ) -> float:
+    """How far the pin part of mate ``m`` travels engaged: the pin's engagement in its hole,
+    or with ``parts`` (part geometry) the travel that takes it out of the bore when that is
+    longer by more than mesh noise (:func:`clearing_travel_m`), m."""
+    pin = product.feature(m.pin_part, m.pin_feature)
+    hole = product.feature(m.hole_part, m.hole_feature)
+    engaged = pin.length_m if (hole.through or hole.length_m <= 0) \
+        else min(pin.length_m, hole.length_m)
+    if parts is not None:  # beyond the feature's engagement by more than mesh noise
+        travel = clearing_travel_m(product, m, {n: parts[n].points_m
+                                                for n in (m.pin_part, m.hole_part)})
+        engaged = travel if travel > engaged + 1e-6 else engaged
+    return float(engaged)
+
+
 def insertion_spec(product: Product, part: str, placed: Sequence[str],
                    fallback_direction: np.ndarray | None = None, step: int = 0,
                    parts: dict[str, PartData] | None = None) -> InsertionSpec:
@@ -116,13 +132,7 @@ def insertion_spec(product: Product, part: str, placed: Sequence[str],
         axis_w = product.T_world_assembled(m.pin_part)[:3, :3] @ pin.axis
         dirs.append(axis_w if m.pin_part == part else -axis_w)
         names.append(m.name)
-        engaged = pin.length_m if (hole.through or hole.length_m <= 0) \
-            else min(pin.length_m, hole.length_m)
-        if parts is not None:  # beyond the feature's engagement by more than mesh noise
-            travel = clearing_travel_m(product, m, {n: parts[n].points_m
-                                                    for n in (m.pin_part, m.hole_part)})
-            engaged = travel if travel > engaged + 1e-6 else engaged
-        length = max(length, engaged)
+        length = max(length, mate_engagement_m(product, m, parts))
         depth = max(hole.length_m, pin.length_m)
         regions.append(HoleRegion(m.name, m.pin_part, m.hole_part, np.asarray(hole.origin_m),
                                   np.asarray(hole.axis), hole.diameter_m / 2, depth,

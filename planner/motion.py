@@ -67,6 +67,7 @@ from .insertion import (
     clear_standoff_m,
     clearing_travel_m,
     insertion_spec,
+    mate_engagement_m,
     other_body,
     unexcused,
 )
@@ -276,9 +277,7 @@ class MotionPlanner:
             # it travels further than its own seat is deep (gearbox bearing_2: 16 against
             # 12 mm), but only its seat's length must stay free of the fingers
             own = [m for m in product.mates if m.name in spec.mates and m.pin_part == part]
-            lead -= max(clearing_travel_m(product, m, {n: self.parts[n].points_m
-                                                       for n in (m.pin_part, m.hole_part)})
-                        for m in own)
+            lead -= max(mate_engagement_m(product, m, self.parts) for m in own)
         gripper = product.gripper_for(part)
         candidates = iter_grasps(part, data.surface, gripper,
                                  product.part(part).handling.grasp,

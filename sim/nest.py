@@ -103,7 +103,9 @@ def tray_nest(geometry: ProductGeometry, part: str, T_world_part: np.ndarray, pi
     rect = aabb(face_pts[:, :2])
     rect = rect + np.array([[1.0, 1.0], [-1.0, -1.0]]) * settings.nest_inset_m
     if np.any(rect[1] <= rect[0]):
-        return None
+        # no face to carry a nest (a facet strip of a cylinder's side: a flanged bearing on
+        # its edge, its body's lowest facet 4 mm up): the part may still tip over (cradle)
+        return _cradle(geometry, part, T_world_part, v, pieces, settings)
     pockets = []
     for pc in pieces:
         pts = transform_points(transform_points(piece_corners(pc), T_world_part), to_nest)
