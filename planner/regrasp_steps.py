@@ -70,7 +70,7 @@ def plan_regrasp(planner: MotionPlanner, index: int, part: str, fallback_directi
         if len(found) == 2:
             other = max(found, key=lambda f: f[0])
             put, timing = steps[0]
-            why = (f"regrasp {way}: {cost:.2f} s for both steps, the shorter cycle time "
+            why = (f"{part}: regrasp {way}: {cost:.2f} s for both steps, the shorter cycle time "
                    f"(regrasp {other[1]}: {other[0]:.2f} s)")
             steps = [(replace(put, notes=(*put.notes, why)), timing), steps[1]]
         return steps
@@ -105,8 +105,10 @@ def _put_and_pick(planner: MotionPlanner, index: int, part: str, fallback_direct
         planner.scene.set_part_pose(part, T_start)
         tried.append(f"{label}: picking it again: {exc}")
         return None
-    put_note = (f"put into regrasp fixture {fixture} (resources.regrasp)" if fixture
-                else "put down on a free area of the table in another stable orientation")
+    put_note = (f"{part}: put into regrasp fixture {fixture} (resources.regrasp) and picked "
+                "again there" if fixture else
+                f"{part}: put down on a free area of the table in another stable orientation "
+                "and picked again there")
     step = put[0]
     return [(replace(step, notes=(*step.notes, put_note)), put[1]), pick]
 
