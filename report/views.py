@@ -172,15 +172,19 @@ class Views:
     # ------------------------------------------------------------------------------------
     def waiting_items(self, plan: Plan, after_index: int) -> list[SceneItem]:
         """Parts of steps after ``after_index`` at their start poses (on the tray), in grey."""
-        return [self.part_item(s.part, s.T_world_start, WAITING_RGBA) for s in plan.steps
-                if s.index > after_index and s.kind != "fixture"]
+        moved = {s.part for s in plan.steps if s.index <= after_index}
+        first: dict[str, Step] = {}
+        for s in plan.steps:  # a regrasped part waits once, where its first step picks it
+            if s.index > after_index and s.kind != "fixture" and s.part not in moved:
+                first.setdefault(s.part, s)
+        return [self.part_item(s.part, s.T_world_start, WAITING_RGBA) for s in first.values()]
 
     def placed_items(self, plan: Plan, before_index: int) -> list[SceneItem]:
         """Parts of the steps before ``before_index`` at their assembled poses (a regrasped
         part where its regrasp put it), and the cell's regrasp fixtures."""
-        return [*self.fixture_items(),
-                *(self.part_item(s.part, s.T_world_final) for s in plan.steps
-                  if s.index < before_index)]
+        last = {s.part: s for s in plan.steps if s.index < before_index}  # the latest pose
+        return [*self.fixture_items(), *(self.part_item(s.part, s.T_world_final)
+                                         for s in plan.steps if last.get(s.part) is s)]
 
     def fixture_items(self) -> list[SceneItem]:
         """The cell's declared regrasp fixtures (``resources.regrasp``), in grey."""

@@ -219,3 +219,22 @@ def test_a_flanged_bearing_on_edge_waits_on_a_cradle_rail():
     tops = [pc.T_part_piece[2, 3] * 2 for pc in nest[0]]
     # up to the 32 mm body (r 16), within its polygon's 4 um
     assert tops == pytest.approx([4e-3] * len(tops), abs=1e-5)
+
+
+def test_report_views_show_each_part_once_and_the_fixtures(gearbox_plan):
+    """The report's scenes: a regrasped part appears once (on the tray, in its regrasp pose,
+    then assembled), and the cell's regrasp fixtures are drawn."""
+    from asmplan.report.views import Views
+
+    product, geometry, plan = gearbox_plan
+    views = Views(product, geometry)
+    put = next(s for s in plan.steps if s.part == "shaft" and s.kind == "regrasp")
+    for k in range(len(plan.steps)):
+        placed = [it.name for it in views.placed_items(plan, k)]
+        waiting = [it.name for it in views.waiting_items(plan, k)]
+        names = [n for n in placed + waiting if not n.startswith("fixture:")]
+        assert len(names) == len(set(names)), (k, names)
+        assert {"fixture:shaft_stand", "fixture:cover_rest"} <= set(placed)
+    # while the shaft's pick runs, it stands in the stand (the put's final pose)
+    during = {it.name: it for it in views.placed_items(plan, put.index + 1)}
+    np.testing.assert_array_equal(during["shaft"].T_world_item, put.T_world_final)
