@@ -355,9 +355,10 @@ class MotionPlanner:
             T = T_part @ g.T_part_gripper
             # the gripper is made of boxes: its lowest point is exact without FCL
             z = (span @ T[2, :3] + T[2, 3]).reshape(-1, 8).min(axis=1)
-            if float(z.min()) < margin:
-                piece = "palm" if int(np.argmin(z)) >= 2 else "open fingers"
-                return f"{where} ({piece})", [CollidingPair(GRIPPER_SPAN, TABLE)]
+            if float(z.min()) < margin:  # pieces: two fingers, then the palm
+                low = [n for n, zz in (("open fingers", z[:2].min()), ("palm", z[2:].min()))
+                       if zz < margin]
+                return f"{where} ({' and '.join(low)})", [CollidingPair(GRIPPER_SPAN, TABLE)]
             hit = scene.hits(GRIPPER_SPAN, T, obstacles)
             if hit:
                 return (f"{where} ({self._gripper_pieces(g, T, hit)})",

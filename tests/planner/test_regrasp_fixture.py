@@ -238,3 +238,31 @@ def test_report_views_show_each_part_once_and_the_fixtures(gearbox_plan):
     # while the shaft's pick runs, it stands in the stand (the put's final pose)
     during = {it.name: it for it in views.placed_items(plan, put.index + 1)}
     np.testing.assert_array_equal(during["shaft"].T_world_item, put.T_world_final)
+
+
+def test_flat_cover_fails_where_a_real_cell_would(tmp_path):
+    """The cover lying flat on the table (the file before its pedestal): its only grasps
+    pinch the 8 mm edge, and for every one the lower finger (and the palm, 100 mm along the
+    closing axis) would have to go under the plate into the table. With the pedestal where
+    it lay, the layout check names the pedestal."""
+    from asmplan.planner.errors import StartInCollisionError
+
+    text = GEARBOX.read_text().replace("start: {location: cover_rest, xyz: [120, 300, 54]}",
+                                       "start: {location: tray, xyz: [120, 300, 4]}")
+    path = tmp_path / "flat_cover.yaml"
+    path.write_text(text)
+    product = load_product(path)
+    with pytest.raises(StartInCollisionError, match=r"cover / fixture:cover_rest"):
+        _planner(product)
+    bare = dataclasses.replace(product, resources=dataclasses.replace(
+        product.resources, regrasp=tuple(f for f in product.resources.regrasp
+                                         if f.name != "cover_rest")))
+    planner = _planner(bare, PlannerSettings(regrasp=False))
+    k = 0
+    for name in ("housing", "dowel_1", "dowel_2", "dowel_3", "dowel_4"):
+        k += len(planner.plan_steps(k, name))
+    with pytest.raises(NoGraspError) as info:
+        planner.plan_steps(k, "cover")
+    assert len(info.value.reasons) == 1
+    assert re.fullmatch(r"\d+ candidates: the gripper hits table at the start pose \(open "
+                        r"fingers and palm\)", info.value.reasons[0]), info.value.reasons
