@@ -24,7 +24,7 @@ class MatesBuilder(BuilderBase):
     all_names: list[str]
     known_names: set[str]
     default_fits: tuple[FitRule, ...] | None
-    defaulted: dict[PathKey, str]
+    defaulted: dict[PathKey, tuple[str, str]]
 
     def check_part_ref(self, name: str, path: PathKey) -> bool:
         if name in self.known_names:
@@ -72,16 +72,17 @@ class MatesBuilder(BuilderBase):
                          f"{hole.ref} ({hole.diameter_m * mm_per_m:g} mm), found "
                          f"{hub * mm_per_m:g} mm")
                 continue
-            fit = iso286_normal(v["fit"]) if v["fit"] else self.defaulted.pop(path, None)
+            fit, source = ((iso286_normal(v["fit"]), None) if v["fit"]
+                           else self.defaulted.pop(path, (None, None)))
             mates.append(Mate(name, pin.part, pin.name, hole.part, hole.name, *clearance,
-                              fit=fit, hub_diameter_m=hub))
+                              fit=fit, hub_diameter_m=hub, fit_source=source))
         return mates
 
     def mate_clearance(self, v: dict[str, Any], path: PathKey, pin: Feature, hole: Feature
                        ) -> tuple[float, float] | None:
         mm = 1e3
         if v["fit"] is None and v["clearance"] is None and v["interference"] is None:
-            if self.default_fits is not None and abs(pin.diameter_m - hole.diameter_m) <= 1e-9:
+            if abs(pin.diameter_m - hole.diameter_m) <= 1e-9:  # line to line, as CAD draws
                 return self.default_fit_clearance(path, pin, hole)
             c = hole.diameter_m - pin.diameter_m
             if c < 0:
@@ -129,7 +130,7 @@ class MatesBuilder(BuilderBase):
     def build_default_fits(self, raw: Any, data: Any) -> tuple[FitRule, ...] | None:
         """The product's ``default_fits`` rules (None without the key). Each fit must be a
         valid ISO 286 fit over the rule's whole size range (checked at its ends)."""
-        self.defaulted: dict[PathKey, str] = {}
+        self.defaulted: dict[PathKey, tuple[str, str]] = {}
         if raw is None:
             return None
         if raw is INVALID:  # one rule failed its schema (reported): check the others too
@@ -160,8 +161,9 @@ class MatesBuilder(BuilderBase):
 
     def default_fit_clearance(self, path: PathKey, pin: Feature, hole: Feature
                               ) -> tuple[float, float] | None:
-        """A line-to-line mate without a fit, with ``default_fits`` given: the first matching
-        rule of the product's, then the built-in rules (:mod:`asmplan.knowledge.fit_rules`)."""
+        """A line-to-line mate without a fit: the first matching rule of the product's
+        ``default_fits`` (if any), then of the knowledge base's built-in rules
+        (:mod:`asmplan.knowledge.fit_rules`), with or without the key."""
         rules = (*(self.default_fits or ()), *builtin_rules())
         rule = default_fit(pin.kind, hole.kind, hole.diameter_m, rules)
         if rule is None:
@@ -173,7 +175,7 @@ class MatesBuilder(BuilderBase):
         except iso286.FitError as exc:
             self.err(path, f'default fit "{rule.fit}" ({rule.source}) at {hole.diameter_m * 1e3:g} mm: {exc}')
             return None
-        self.defaulted[path] = rule.fit
+        self.defaulted[path] = (rule.fit, f"{rule.source}: {rule.why}" if rule.why else rule.source)
         return f.clearance_min_m, f.clearance_max_m
 
     def resolve_feature(self, ref: str, path: PathKey, parts: dict[str, Part],

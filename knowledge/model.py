@@ -129,9 +129,11 @@ class Mate:
     """A pin (or shaft) seated in a hole (or bore), with its diametral clearance range.
 
     ``clearance_min_m``/``clearance_max_m`` are hole minus pin diameter; negative means
-    interference. ``fit`` is the ISO 286 designation when one was given. ``hub_diameter_m``
-    is the outer diameter of the hub around the hole when declared (press fits; otherwise it
-    is measured on the hole part's solid, see :mod:`asmplan.parts.press_fit`).
+    interference. ``fit`` is the ISO 286 designation when one was given, or the default fit
+    of a line-to-line mate written without one; ``fit_source`` then says which rule gave it
+    (its file and line, and its reason). ``hub_diameter_m`` is the outer diameter of the hub
+    around the hole when declared (press fits; otherwise it is measured on the hole part's
+    solid, see :mod:`asmplan.parts.press_fit`).
     """
 
     name: str
@@ -143,6 +145,7 @@ class Mate:
     clearance_max_m: float
     fit: str | None = None
     hub_diameter_m: float | None = None
+    fit_source: str | None = None
 
     @property
     def kind(self) -> Literal["clearance", "transition", "interference"]:

@@ -39,7 +39,8 @@ import numpy as np
 
 from ..knowledge.model import Product
 from .arm_reach import ArmReach, ReachFailure
-from .grasp import GripLoad, iter_grasps
+from .grasp import iter_grasps
+from .grasp_hold import GripLoad
 
 if TYPE_CHECKING:
     from ..parts.models import ProductGeometry

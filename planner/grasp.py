@@ -21,19 +21,26 @@ composites with holes, imported meshes):
 For each candidate the pads are the finger boxes' inner faces, ``width x length`` rectangles
 (gripper x, z) centred on the TCP. The surface points inside a pad's footprint prism decide
 the contact: the outermost points along the closing axis touch the pads; those within
-``CONTACT_BAND_M`` of the extreme count as contact area, and their normals must lie inside the
-friction cone (``mu = finger friction * part friction``) of the closing direction. Rejected:
-no contact on one side, a normal outside the cone, a contact area below
-``MIN_CONTACT_FRACTION`` of the pad's, a width beyond the stroke (minus the opening clearance
-on both sides), any surface point inside the palm box.
+``CONTACT_BAND_M`` of the extreme make the pad's contact patch, and their normals must lie
+inside the friction cone (``mu = finger friction * part friction``) of the closing direction.
+Rejected: no contact on one side, a normal outside the cone, a width beyond the stroke (minus
+the opening clearance on both sides), any surface point inside the palm box, and (with a
+:class:`GripLoad`) a grip that cannot hold the part: the clamp force per finger that carries
+its weight and inertia, as force and as moment about the contact patches (torsional friction
+of the patches, tipping about the contact line; :mod:`asmplan.planner.grasp_hold`), above the
+force limit.
 
 Ranking
 -------
 ``cost = 10 [not the hint] + 2 [closing axis not the hint's] + 1 [fingertips lead the part
-into its mate] + com_offset / size + 0.5 (1 - area / pad area) + 0.25 (1 - down_start .
-approach) + 0.25 (1 - down_final . approach)``: knowledge hints first, then grasps whose
-fingers stay behind the mating face, centred on the centre of mass, with a large contact
-area, coming from above at both poses. ``size`` is the part's bounding-box diagonal.
+into its mate] + (1 - F_slide / F_hold) + 0.25 (1 - down_start . approach)
++ 0.25 (1 - down_final . approach)``: knowledge hints first, then grasps whose fingers stay
+behind the mating face, with the largest holding margin, coming from above at both poses.
+``F_hold`` is the clamp force the grasp needs and ``F_slide`` what a grasp with no moment
+would need (the load alone), so the term is 0 for a grasp whose patches surround the centre of
+mass and grows towards 1 as the moment about small patches dominates; for one part, ranking by
+it is ranking by the margin ``force limit / F_hold``. Without a load the term is computed for
+a unit mass at 5 m/s^2.
 
 Finger collisions with the partial assembly and the table at the start and final poses are
 judged by :func:`collision_free` with a checker supplied by :mod:`asmplan.planner.motion`.
@@ -53,6 +60,14 @@ import numpy as np
 from ..knowledge.model import GraspHint, Gripper
 from ..parts.mesh import TriangleMesh, sample_surface
 from .errors import CollidingPair
+from .grasp_hold import (
+    ContactPatch,
+    GripLoad,
+    HoldRejections,
+    hold_lower_bound,
+    hold_requirement,
+    hold_term,
+)
 from .plan import Grasp
 
 CONTACT_BAND_M = 3e-4
@@ -60,11 +75,6 @@ CONTACT_BAND_M = 3e-4
 
 _MIN_CONTACT_POINTS = 3
 _MAX_OFFSETS = 41  # pad centres per axis and candidate frame (the whole part, every depth)
-G_M_S2 = 9.81
-MIN_CONTACT_FRACTION = 0.02
-"""Smallest contact area of a pad, as a share of the pad's area: a pad that touches the part
-only along an edge (a 45 deg pinch of a sleeve's rim, 3 mm^2 of a 600 mm^2 pad) cannot hold
-the moment of an insertion; a pad on a cylinder's flank a few mm deep touches 20-30 mm^2."""
 _END_STEP_M = 1e-3  # finest step of a finger covering only an end of a narrow part
 _EDGE_INSET_M = 1e-3  # a finger sticking out on one side keeps its other edge this far in
 _STOP_GAP_M = 2.5e-4  # fingertips stopped this far short of the lead limit
@@ -120,52 +130,6 @@ class GraspSurface:
         return cls(points_m=np.asarray(pts, float), normals=np.asarray(normals, float),
                    area_per_point_m2=float(mesh.area) / float(n_samples),
                    com_m=np.asarray(com_m, float), kind=kind, n_area=int(n_samples))
-
-
-@dataclass(frozen=True)
-class GripLoad:
-    """What the grip must carry, for the stability term of the ranking (SI).
-
-    Parameters
-    ----------
-    mass_kg : float
-        The part's mass.
-    acceleration_m_s2 : float
-        The largest acceleration of the part while carried.
-    force_limit_N : float
-        The largest clamp force per finger (the gripper's, or the part's if lower).
-    safety_factor : float
-        The process's safety factor on the clamp force.
-    """
-
-    mass_kg: float
-    acceleration_m_s2: float
-    force_limit_N: float
-    safety_factor: float = 2.0
-
-    def __post_init__(self) -> None:
-        for name in ("mass_kg", "force_limit_N", "safety_factor"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"GripLoad.{name}: expected > 0, found {v!r}")
-        if not (math.isfinite(self.acceleration_m_s2) and self.acceleration_m_s2 >= 0):
-            raise ValueError(f"GripLoad.acceleration_m_s2: expected >= 0, found "
-                             f"{self.acceleration_m_s2!r}")
-
-    def torque_cost(self, lever_m: float, mu: float, pad_width_m: float) -> float:
-        """Share of the force limit that holding the moment about the closing axis adds.
-
-        The clamp force of :func:`asmplan.planner.timing.clamp_force`,
-        ``sf sqrt(F_t^2 + F_m^2)`` with ``F_t = m (g + a) / (2 mu)`` and the moment term
-        ``F_m = 2 m (g + a) d / (mu W)`` (the whole lever ``d`` taken as horizontal, the
-        worst case), minus its value for a centred grasp, over the force limit: 0 for a grasp
-        on the centre of mass, 1 when the moment alone uses the whole limit."""
-        if mu <= 0:  # no friction: no grip holds, whatever its lever; the clamp check says
-            return 0.0  # so with its reason ("needs inf N"), ranking has nothing to weigh
-        load = self.mass_kg * (G_M_S2 + self.acceleration_m_s2)
-        slide = load / (2.0 * mu)
-        turn = 2.0 * load * lever_m / (mu * pad_width_m)
-        return self.safety_factor * (math.hypot(slide, turn) - slide) / self.force_limit_N
 
 
 def _clip(x: float, lo: float, hi: float) -> float:
@@ -257,6 +221,7 @@ def iter_grasps(
     table_poses: Sequence[np.ndarray] = (),
     table_margin_m: float = 0.0,
     stats: dict[str, int] | None = None,
+    hold_rejections: HoldRejections | None = None,
 ) -> Iterator[Grasp]:
     """Antipodal grasps of one part in increasing cost (see the module docstring), lazily.
 
@@ -283,16 +248,16 @@ def iter_grasps(
     min_overlap_m : float, optional
         Smallest overlap of a pad with the part along the approach axis, m; default 2 mm (a
         3 mm flange in front of a wall, the fingertips kept clear of the wall), or a quarter
-        of the pad length for pads shorter than 8 mm (a short pad on a 3 mm head). The
-        contact area floor (``MIN_CONTACT_FRACTION``) rejects what is too small to hold.
+        of the pad length for pads shorter than 8 mm (a short pad on a 3 mm head). Whether
+        the contact is enough to hold the part is the load's question (below).
     insertion_part, lead_limit_m : (3,) float array and float, optional
         The insertion direction in the part frame and how far along it (from the centre of
         mass, m) the fingers may reach: grasps whose fingertips would lead the part into its
         mate (reach past the pin roots, or past a hole part's leading face) cost 1 more.
     load : GripLoad, optional
-        Mass, acceleration and force limit: the stability term of the ranking is then the
-        moment about the closing axis (:meth:`GripLoad.torque_cost`) instead of the centre
-        of mass offset over the part's size.
+        Mass, acceleration, force limit and safety factor: a grasp whose contact patches need
+        more clamp force than the limit to hold the part is rejected (counted in
+        ``hold_rejections``); without it the ranking's hold term uses a unit load.
     table_poses : sequence of (4, 4) float arrays, optional
         World poses of the part (start, assembled) at which the fingers must stay
         ``table_margin_m`` above the table top (z = 0): a candidate whose lower finger is
@@ -301,6 +266,8 @@ def iter_grasps(
         caller's (the palm, the exact width).
     stats : dict, optional
         Receives counts of dropped candidates.
+    hold_rejections : HoldRejections, optional
+        Receives the grasps rejected because the grip cannot hold the part.
 
     Yields
     ------
@@ -316,27 +283,23 @@ def iter_grasps(
     P = surface.points_m
     N = surface.normals
     com = surface.com_m
-    size = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
     max_width = float(gripper.stroke_m) - 2.0 * finger_clearance_m
-    pad_area = W * L
     down_s = None if down_start_part is None else _unit(down_start_part)
     down_f = None if down_final_part is None else _unit(down_final_part)
     hint_c = None if hint is None or hint.closing_axis is None else _unit(hint.closing_axis)
     hint_a = None if hint is None or hint.approach_axis is None else _unit(hint.approach_axis)
     hint_o = None if hint is None or hint.offset_m is None else np.asarray(hint.offset_m, float)
 
+    # the load the grip must hold: the part's, or (ranking only) a unit mass at 5 m/s^2
+    mass, accel, sf = ((load.mass_kg, load.acceleration_m_s2, load.safety_factor)
+                       if load is not None else (1.0, 5.0, 2.0))
+    downs = tuple(d for d in (down_s, down_f) if d is not None)
     frames: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]] = []
-    # (lower bound, serial, frame, u, v, hint, cost without the area term)
+    # (lower bound, serial, frame, u, v, hint, cost without the hold term)
     todo: list[tuple[float, int, int, float, float, bool, float]] = []
     rel = P - com
-    app = surface.area_per_point_m2
     for c in closing_axes(surface, hint):
         is_hint_c = hint_c is not None and abs(float(np.dot(c, hint_c))) > 0.999
-        # the contact area can be no larger than the surface facing each finger within the
-        # friction cone: a floor of the area term, known before any evaluation
-        nc = N @ c
-        facing = min(int((nc >= cos_cone).sum()), int((nc <= -cos_cone).sum())) * app
-        area_floor = 0.5 * (1.0 - min(1.0, facing / pad_area))
         a0 = _perpendicular(c, down_s)
         b0 = np.cross(c, a0)
         approaches = [math.cos(k * _ANGLE_STEP_RAD) * a0 + math.sin(k * _ANGLE_STEP_RAD) * b0
@@ -418,21 +381,24 @@ def iter_grasps(
                     if stats is not None:
                         stats["below_table"] = stats.get("below_table", 0) + 1
                     continue
-                known = base + (math.hypot(u, v) / size if load is None
-                                else load.torque_cost(math.hypot(u, v), mu, W))
+                known = base
                 if (reach is not None and lead_limit_m is not None
                         and float((u * x + v * a) @ ins) + reach > lead_limit_m):
                     known += 1.0
-                todo.append((known + area_floor, len(todo), fi, u, v, is_hint, known))
+                # the hold term (below) is at least this, whatever the patches
+                lever_lb = math.hypot(max(0.0, abs(u) - W / 2), max(0.0, abs(v) - L / 2))
+                hold_lb = hold_term(1.0, hold_lower_bound(lever_lb, W, L, accel))
+                todo.append((known + hold_lb, len(todo), fi, u, v, is_hint, known))
     todo.sort(key=lambda t: (t[0], t[1]))
     heap: list[tuple[float, int, tuple[Any, ...], bool]] = []
     strips: dict[tuple[int, float], tuple[_Strip, _Strip]] = {}
     sorted_frames: dict[int, _Frame] = {}
 
     def make(item: tuple[float, int, tuple[Any, ...], bool]) -> Grasp:
-        cost, _, (T, width, open_width, area, offset), hinted = item
+        cost, _, (T, width, open_width, area, offset, req), hinted = item
         return Grasp(part, T, width, open_width, area, offset,
-                     "hint" if hinted else "antipodal", cost)
+                     "hint" if hinted else "antipodal", cost, req.torsion_radius_m,
+                     req.lever_m, req.required_N if load is not None else None)
 
     for lb, serial, fi, u, v, is_hint, known in todo:
         while heap and heap[0][0] <= lb:
@@ -449,10 +415,16 @@ def iter_grasps(
                       hint)
         if g is None:
             continue
-        if g[3] < MIN_CONTACT_FRACTION * pad_area:
+        top, bottom = g[5]
+        com_g = np.array([-u, -g[6], -v])
+        req = hold_requirement(top, bottom, com_g, mass, accel, mu, sf,
+                               tuple(np.array([d @ x, d @ c, d @ a]) for d in downs))
+        if load is not None and req.required_N > load.force_limit_N:
+            if hold_rejections is not None:
+                hold_rejections.add(req)
             continue
-        cost = known + 0.5 * (1.0 - min(1.0, g[3] / pad_area))
-        heapq.heappush(heap, (cost, serial, g, is_hint))
+        cost = known + hold_term(req.slide_N, req.required_N)
+        heapq.heappush(heap, (cost, serial, (*g[:5], req), is_hint))
     while heap:
         yield make(heapq.heappop(heap))
 
@@ -476,10 +448,11 @@ def grasp_candidates(part: str, surface: GraspSurface, gripper: Gripper,
 class _Strip:
     """Surface points of one candidate frame within a band of gripper x, sorted by z."""
 
-    __slots__ = ("N", "S", "Y", "Z")
+    __slots__ = ("N", "S", "X", "Y", "Z")
 
     def __init__(self, frame: _Frame, u: float, half_width: float) -> None:
         keep = np.abs(frame.X - u) <= half_width
+        self.X = frame.X[keep]
         self.Z = frame.Z[keep]
         self.Y = frame.Y[keep]
         self.N = frame.N[keep]
@@ -507,8 +480,10 @@ def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
               a: np.ndarray, com: np.ndarray, u: float, v: float, L: float,
               palm: np.ndarray, cos_cone: float, max_width: float, stroke: float,
               clearance: float, area_per_point: float, hint: GraspHint | None
-              ) -> tuple[np.ndarray, float, float, float, float] | None:
-    """(T_part_gripper, width, open width, contact area, CoM offset) or None."""
+              ) -> tuple[np.ndarray, float, float, float, float,
+                         tuple[ContactPatch, ContactPatch], float] | None:
+    """(T_part_gripper, width, open width, contact area, CoM offset, the two pads' contact
+    patches (+y, -y), y of the pads' midplane in the frame's coordinates) or None."""
     w = pad.window(v - L / 2, v + L / 2)
     yin = pad.Y[w]
     if yin.size == 0:
@@ -539,13 +514,24 @@ def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
     yp = palm_strip.Y[pw]
     if np.any((np.abs(yp - y_mid) <= palm[1] / 2) & (palm_strip.Z[pw] < z_root)):
         return None
+    xin, zin = pad.X[w], pad.Z[w]
+    ti, bi = np.flatnonzero(top)[top_ok], np.flatnonzero(bot)[bot_ok]
+    nt, nb = n_in[ti], n_in[bi]
+    patches = (ContactPatch.rigid(np.stack([xin[ti] - u, zin[ti] - v], axis=1),
+                                  y_max - yin[ti], float(ti.size) * area_per_point,
+                                  CONTACT_BAND_M,
+                                  np.stack([nt @ x, nt @ a], axis=1) / (nt @ c)[:, None]),
+               ContactPatch.rigid(np.stack([xin[bi] - u, zin[bi] - v], axis=1),
+                                  yin[bi] - y_min, float(bi.size) * area_per_point,
+                                  CONTACT_BAND_M,
+                                  np.stack([nb @ x, nb @ a], axis=1) / -(nb @ c)[:, None]))
     T = np.eye(4)
     T[:3, 0], T[:3, 1], T[:3, 2] = x, c, a
     T[:3, 3] = com + u * x + y_mid * c + v * a
     open_width = min(stroke, width + 2.0 * clearance)
     if hint is not None and hint.width_m is not None and width <= hint.width_m <= stroke:
         open_width = float(hint.width_m)
-    return T, width, open_width, area, math.hypot(u, v)
+    return T, width, open_width, area, math.hypot(u, v), patches, y_mid
 
 
 class Rejections:

@@ -61,7 +61,8 @@ from .errors import (
     PlanningError,
     StartInCollisionError,
 )
-from .grasp import GripLoad, Rejections, collision_free, iter_grasps
+from .grasp import Rejections, collision_free, iter_grasps
+from .grasp_hold import GripLoad, HoldRejections
 from .insertion import (
     InsertionSpec,
     clear_standoff_m,
@@ -91,6 +92,7 @@ from .timing import (
     Move,
     StepMotion,
     clamp_force,
+    held_clamp_force,
     motion_limits,
     time_step,
 )
@@ -279,6 +281,7 @@ class MotionPlanner:
             own = [m for m in product.mates if m.name in spec.mates and m.pin_part == part]
             lead -= max(mate_engagement_m(product, m, self.parts) for m in own)
         gripper = product.gripper_for(part)
+        held = HoldRejections()
         candidates = iter_grasps(part, data.surface, gripper,
                                  product.part(part).handling.grasp,
                                  part_friction=product.part(part).friction,
@@ -287,7 +290,8 @@ class MotionPlanner:
                                  insertion_part=ins_part,
                                  lead_limit_m=lead - product.process.position_tolerance_m,
                                  load=GripLoad(data.mass_kg, clamp.acceleration_m_s2,
-                                               clamp.limit_N, product.process.safety_factor))
+                                               clamp.limit_N, product.process.safety_factor),
+                                 hold_rejections=held)
         if grasp is not None:
             candidates = iter([grasp])
         rejected = Rejections()
@@ -332,7 +336,8 @@ class MotionPlanner:
             raise first_arm
         reasons = [f"grasp {k + 1}: {f.reason}" for k, f in enumerate(failures)]
         reasons += rejected.reasons()
-        if rejected.examined == 0:
+        reasons += held.reasons(clamp.limit_N)
+        if rejected.examined == 0 and held.count == 0:
             reasons.append("no antipodal finger placement within the gripper's stroke and the "
                            "friction cone")
         raise NoGraspError(part, reasons, index)
@@ -455,8 +460,13 @@ class MotionPlanner:
         R_s, R_f = T_start[:3, :3], T_final[:3, :3]
         gravity_lever = max(float(np.linalg.norm((R @ perp)[:2])) for R in (R_s, R_f))
         try:
-            clamp = clamp_force(product, part, clamp.mass_kg, step=index, lever_m=lever,
-                                gravity_lever_m=gravity_lever, resistance_N=clamp.resistance_N)
+            if g.hold_required_N is not None and g.torsion_radius_m is not None:
+                clamp = held_clamp_force(product, part, clamp, g, index, lever_m=lever,
+                                         gravity_lever_m=gravity_lever)
+            else:
+                clamp = clamp_force(product, part, clamp.mass_kg, step=index, lever_m=lever,
+                                    gravity_lever_m=gravity_lever,
+                                    resistance_N=clamp.resistance_N)
         except GripInfeasibleError as exc:
             raise _GraspFailed(f"grip infeasible for this grasp: {exc}", exc) from None
         scene.use_gripper(g, product.gripper_for(part))

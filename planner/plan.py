@@ -323,6 +323,14 @@ class Grasp:
         "hint" when built from the part's handling knowledge.
     cost : float
         Ranking cost (lower is better); see :mod:`asmplan.planner.grasp`.
+    torsion_radius_m : float, optional
+        Mean torsion radius of the two pads' contact patches, m: under uniform pressure a
+        pad resists ``mu F`` times this about its patch (:mod:`asmplan.planner.grasp_hold`).
+    lever_m : float, optional
+        Distance of the centre of mass from the contact centre in the pad plane, m.
+    hold_required_N : float, optional
+        Clamp force per finger that holds the part's weight and inertia with this grasp
+        (safety factor included), N.
     """
 
     part: str
@@ -333,6 +341,9 @@ class Grasp:
     com_offset_m: float
     source: Literal["hint", "antipodal"]
     cost: float
+    torsion_radius_m: float | None = None
+    lever_m: float | None = None
+    hold_required_N: float | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "T_part_gripper", _pose(self.T_part_gripper, "T_part_gripper"))
@@ -357,7 +368,11 @@ class Grasp:
                 "width_m": float(self.width_m), "open_width_m": float(self.open_width_m),
                 "contact_area_m2": float(self.contact_area_m2),
                 "com_offset_m": float(self.com_offset_m), "source": self.source,
-                "cost": float(self.cost)}
+                "cost": float(self.cost),
+                **{k: float(v) for k, v in (("torsion_radius_m", self.torsion_radius_m),
+                                            ("lever_m", self.lever_m),
+                                            ("hold_required_N", self.hold_required_N))
+                   if v is not None}}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Grasp:
@@ -365,7 +380,9 @@ class Grasp:
                    width_m=float(d["width_m"]), open_width_m=float(d["open_width_m"]),
                    contact_area_m2=float(d["contact_area_m2"]),
                    com_offset_m=float(d["com_offset_m"]), source=d["source"],
-                   cost=float(d["cost"]))
+                   cost=float(d["cost"]),
+                   **{k: float(d[k]) for k in ("torsion_radius_m", "lever_m", "hold_required_N")
+                      if d.get(k) is not None})
 
 
 @dataclass(frozen=True, eq=False)

@@ -27,7 +27,8 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -174,6 +175,54 @@ def clamp_force(product: Product, part: str, mass_kg: float,
                                   mass_kg, mu, a, sf, step)
     return ClampForce(commanded, required, mass_kg, mu, a, sf, limit, source, translational,
                       float(lever_m), width, resistance)
+
+
+def held_clamp_force(product: Product, part: str, base: ClampForce, grasp: Any,
+                     step: int | None = None, *, lever_m: float = 0.0,
+                     gravity_lever_m: float | None = None) -> ClampForce:
+    """The clamp force for a grasp whose hold was judged on its contact patches.
+
+    ``grasp.hold_required_N`` is the force that carries the part's weight and inertia as force
+    and as moment about the patches (:mod:`asmplan.planner.grasp_hold`, safety factor
+    included); an insertion resistance ``R`` (``base.resistance_N``) adds to the load in
+    proportion, ``F = F_hold (1 + R / (m (g + a)))`` (conservative: as if it also turned the
+    part). It is never less than :func:`clamp_force` with the grasp's TCP lever
+    (``lever_m``, ``gravity_lever_m``) over the whole finger width, the former model, unless
+    that one exceeds the force limit: neither model counts the contact forces of the
+    insertion itself (a ring's entry on its shaft's chamfer, 0.4-0.5 N at FAST on
+    gear_unit's 13 g wheel, which slipped at the patch model's 0.37 N and held at the former
+    0.56 N). ``lever_m`` and ``pad_width_m`` of the result are the grasp's (the distance of
+    the centre of mass from the contact centre; the contact length of the same torsional
+    capacity, ``4 rho``: a line contact of length ``L`` has ``rho = L / 4``). Raises
+    :class:`GripInfeasibleError` when the hold needs more than the force limit."""
+    slide = clamp_force(product, part, base.mass_kg, base.acceleration_m_s2, step,
+                        resistance_N=base.resistance_N)
+    load = base.mass_kg * (G_M_S2 + base.acceleration_m_s2)
+    required = max(slide.required_N,
+                   float(grasp.hold_required_N) * (1.0 + base.resistance_N / load))
+    try:
+        former = clamp_force(product, part, base.mass_kg, base.acceleration_m_s2, step,
+                             lever_m=lever_m, gravity_lever_m=gravity_lever_m,
+                             resistance_N=base.resistance_N).required_N
+    except GripInfeasibleError:
+        former = 0.0
+    required = max(required, former)
+    lever = float(grasp.lever_m or 0.0)
+    width = 4.0 * float(grasp.torsion_radius_m)
+    if required > slide.limit_N:
+        raise GripInfeasibleError(part, required, slide.limit_N, slide.limit_source,
+                                  base.mass_kg, slide.mu, slide.acceleration_m_s2,
+                                  slide.safety_factor, step, lever_m=lever, pad_width_m=width,
+                                  resistance_N=base.resistance_N)
+    gripper = product.gripper_for(part)
+    commanded = max(required, float(gripper.min_force_N))
+    if commanded > slide.limit_N:
+        raise GripInfeasibleError(part, commanded, slide.limit_N,
+                                  slide.limit_source + " (below gripper min_force)",
+                                  base.mass_kg, slide.mu, slide.acceleration_m_s2,
+                                  slide.safety_factor, step)
+    return replace(slide, commanded_N=commanded, required_N=required, lever_m=lever,
+                   pad_width_m=width)
 
 
 def min_jerk_duration_s(length_m: float, max_speed_m_s: float, max_acceleration_m_s2: float

@@ -33,7 +33,8 @@ def summary(product: Product) -> dict[str, Any]:
                   for p in product.parts],
         "mates": [{"name": m.name, "pin": f"{m.pin_part}.{m.pin_feature}",
                    "hole": f"{m.hole_part}.{m.hole_feature}", "fit": m.fit, "kind": m.kind,
-                   "clearance_min_m": m.clearance_min_m, "clearance_max_m": m.clearance_max_m}
+                   "clearance_min_m": m.clearance_min_m, "clearance_max_m": m.clearance_max_m,
+                   **({"fit_source": m.fit_source} if m.fit_source else {})}
                   for m in product.mates],
         "base": product.precedence.base,
         "rules": [{"before": r.before, "after": r.after, "reason": r.reason}
@@ -65,6 +66,8 @@ def run(args: argparse.Namespace) -> int:
         lo, hi = m["clearance_min_m"] * 1e6, m["clearance_max_m"] * 1e6
         print(f"  mate  {m['name']}: {m['pin']} in {m['hole']}  {m['fit'] or 'explicit'} "
               f"{m['kind']} {lo:+.0f}..{hi:+.0f} um")
+        if m.get("fit_source"):
+            print(f"        default fit (line to line): {m['fit_source']}")
     if product.precedence.base:
         print(f"  base  {product.precedence.base}")
     for r in info["rules"]:

@@ -48,11 +48,37 @@ def _product(tmp_path: Path, fits: str) -> Path:
     return p
 
 
-def test_without_the_key_a_line_to_line_mate_stays_line_to_line(tmp_path):
+def test_without_the_key_the_knowledge_base_gives_the_fit(tmp_path):
+    """A line-to-line mate written without a fit gets the built-in rule's fit (H7/g6 for a pin
+    in a hole, knowledge/data/default_fits.yaml) whether or not the product has the key, and
+    says which rule gave it; `clearance: 0` keeps a deliberate line-to-line mate."""
     product = load_product(_product(tmp_path, ""))
     m = {m.name: m for m in product.mates}
-    assert m["dowel_in_block"].fit is None
+    for name, d in (("dowel_in_block", 6e-3), ("stud_in_block", 12e-3)):
+        f = iso286.fit("H7/g6", d)
+        assert m[name].fit == "H7/g6"
+        assert m[name].clearance_min_m == pytest.approx(f.clearance_min_m, abs=1e-12)
+        assert m[name].clearance_max_m == pytest.approx(f.clearance_max_m, abs=1e-12)
+        assert m[name].fit_source.startswith("knowledge/data/default_fits.yaml")
+        assert "locating pin" in m[name].fit_source
+    # ISO 286 at 6 mm: H7 0..+12 um, g6 -4..-12 um
+    assert m["dowel_in_block"].clearance_min_m == pytest.approx(4e-6, abs=1e-9)
+    assert m["dowel_in_block"].clearance_max_m == pytest.approx(24e-6, abs=1e-9)
+    text = (tmp_path / "p.yaml").read_text().replace("hole: block.small}",
+                                                    "hole: block.small, clearance: 0}")
+    (tmp_path / "p.yaml").write_text(text)
+    m = {m.name: m for m in load_product(tmp_path / "p.yaml").mates}
+    assert m["dowel_in_block"].fit is None and m["dowel_in_block"].fit_source is None
     assert m["dowel_in_block"].clearance_min_m == m["dowel_in_block"].clearance_max_m == 0.0
+
+
+def test_validate_names_the_rule_of_a_default_fit(tmp_path, capsys):
+    from asmplan.cli import main
+
+    assert main(["validate", str(_product(tmp_path, ""))]) == 0
+    out = capsys.readouterr().out
+    assert "dowel_in_block: dowel.p in block.small  H7/g6 clearance +4..+24 um" in out
+    assert "default fit (line to line): knowledge/data/default_fits.yaml:" in out
 
 
 def test_rules_by_kind_and_size_range_then_the_builtin_ones(tmp_path):
@@ -64,6 +90,7 @@ default_fits:
 """))
     m = {m.name: m for m in product.mates}
     assert m["dowel_in_block"].fit == "H7/h6"
+    assert m["dowel_in_block"].fit_source.startswith(f"{tmp_path / 'p.yaml'}:")
     f = iso286.fit("H7/h6", 6e-3)
     assert m["dowel_in_block"].clearance_min_m == pytest.approx(0.0, abs=1e-12)
     assert m["dowel_in_block"].clearance_max_m == pytest.approx(f.clearance_max_m, abs=1e-12)

@@ -58,3 +58,36 @@ def test_a_real_overlap_is_still_an_interference(bracket_yaml, tmp_path):
     pairs = {(i.a, i.b): i for i in result.interferences}
     hit = pairs[("angle_bracket", "side_block")]
     assert hit.depth_m == pytest.approx(0.5e-3, abs=2e-6)
+
+
+def test_line_to_line_mates_without_a_fit_get_the_knowledge_default(bracket_yaml, tmp_path):
+    """Issue 19: the CAD file's mates with their `fit:` removed and no `default_fits:` key.
+    The knowledge base's rules still give each line-to-line pair its fit (H7/g6 for a pin in a
+    hole or a bore, knowledge/data/default_fits.yaml), so `check` judges the nominal contact
+    against that fit: no interference, every clearance within its fit."""
+    from asmplan.knowledge import iso286
+
+    text = bracket_yaml.read_text()
+    assert "default_fits:" not in text
+    fitted = set(re.findall(r"- \{name: (\w+), [^}]*, fit: H7/g6\}", text))
+    assert len(fitted) >= 5  # the post and the dowels, in the bracket and the blocks
+    bare = re.sub(r", fit: H7/g6\}", "}", text)
+    assert bare.count("fit: H7/g6}") == 0
+    path = tmp_path / "bare.yaml"
+    path.write_text(bare)
+    (tmp_path / "bracket_parts").symlink_to(bracket_yaml.parent / "bracket_parts")
+    product = load_product(path)
+    for m in product.mates:
+        if m.name not in fitted:  # a real clearance, written as such (the washer's bore)
+            assert m.fit is None and m.clearance_min_m > 0
+            continue
+        hole = product.feature(m.hole_part, m.hole_feature)
+        f = iso286.fit("H7/g6", hole.diameter_m)
+        assert m.fit == "H7/g6", m
+        assert "default_fits.yaml" in m.fit_source
+        assert (m.clearance_min_m, m.clearance_max_m) == pytest.approx(
+            (f.clearance_min_m, f.clearance_max_m), abs=1e-12)
+    result = check_assembly(product, ProductGeometry(product))
+    assert result.success, result.reason
+    assert not result.interferences
+    assert all(m.measured_within for m in result.mates)

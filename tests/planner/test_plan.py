@@ -42,33 +42,53 @@ def test_json_round_trip_is_byte_identical(peg_plan, tmp_path):
 
 
 def test_clamp_force_in_the_plan_follows_the_physics(peg_plan, examples):
+    from asmplan.planner.grasp_hold import ContactPatch, hold_requirement
+
     product = examples["peg_in_hole"]
     step = peg_plan.step("peg")
     mass = step.clamp.mass_kg
     # a steel cylinder 10 mm x 40 mm (the pin is part of it): 7850 kg/m^3 within 1 %
     assert mass == pytest.approx(7850 * np.pi * 0.005**2 * 0.04, rel=0.01)
     mu = product.resources.gripper.finger_friction * product.part("peg").friction
-    # sf sqrt(F_t^2 + F_m^2): F_t = (m (g + a) + R) / (2 mu), F_m = 2 m (g d_g + a d) / (mu W), d the
-    # distance of the centre of mass from the closing axis, d_g its horizontal part, W the finger
-    # width, R the declared insertion resistance (none here)
-    W = float(product.resources.gripper.finger_size_m[0])
+    # the grasp closes across the upright peg from above: each flat pad touches the flank
+    # along a line, from the pad's tip (TCP - L/2 along the peg axis) to the peg's top end
+    # (z = 20 mm), so the contact length and its centre's lever follow from the TCP alone
     T = step.grasp.T_part_gripper
+    np.testing.assert_allclose(np.abs(T[:3, 2]), [0, 0, 1], atol=1e-9)
+    L = float(product.resources.gripper.finger_size_m[2])
+    z_lo, z_hi = max(T[2, 3] - L / 2, -0.02), min(T[2, 3] + L / 2, 0.02)
+    length, centre = z_hi - z_lo, 0.5 * (z_hi + z_lo)
+    # a line of length l resists like a pad "width" l (rho = l / 4): sampled within 2 %
+    assert step.clamp.pad_width_m == pytest.approx(length, rel=0.02)
+    assert step.clamp.lever_m == pytest.approx(abs(centre), abs=6e-4)
+    # the required force is the hold criterion's for two such lines (gravity along the
+    # approach at both poses, a = 2 m/s^2 in any direction), safety factor included
+    line = np.zeros((2001, 2))
+    line[:, 1] = np.linspace(z_lo, z_hi, 2001) - T[2, 3]
+    patch = ContactPatch(line * [1, -1], 0.0)  # pad z is -part z
+    down = (np.array([0.0, 0.0, 1.0]),)  # world down is the approach (+z) in the gripper frame
+    expected = hold_requirement(patch, patch, np.array([0.0, 0.0, T[2, 3]]), mass, 2.0, mu,
+                                product.process.safety_factor, down).required_N
+    # and never less than the former model: sf sqrt(F_t^2 + F_m^2), F_t = m (g + a) / (2 mu),
+    # F_m = 2 m (g d_g + a d) / (mu W), d the TCP's distance from the centre of mass normal to
+    # the closing axis, d_g its horizontal part, W the finger width (planner/timing.py)
+    W = float(product.resources.gripper.finger_size_m[0])
     o, y = T[:3, 3], T[:3, 1]
     perp = -o - (-o @ y) * y  # the peg is a centred cylinder: centre of mass ~ part origin
-    d = float(np.linalg.norm(perp))
-    d_g = float(np.linalg.norm(perp[:2]))  # the peg stands upright at the start and at the end
-    assert step.clamp.lever_m == pytest.approx(d, abs=1e-4)  # (chamfers move the centre a bit)
-    d = step.clamp.lever_m
-    slide = (mass * (9.81 + 2.0) + product.process.insertion_resistance_N) / (2 * mu)
-    turn = 2 * mass * (9.81 * d_g + 2.0 * d) / (mu * W)
-    expected = product.process.safety_factor * float(np.hypot(slide, turn))
-    assert step.clamp.commanded_N == pytest.approx(expected, rel=1e-3)
+    d, d_g = float(np.linalg.norm(perp)), float(np.linalg.norm(perp[:2]))
+    former = product.process.safety_factor * float(np.hypot(
+        mass * (9.81 + 2.0) / (2 * mu), 2 * mass * (9.81 * d_g + 2.0 * d) / (mu * W)))
+    assert step.clamp.required_N == pytest.approx(max(expected, former), rel=0.03)
+    assert step.clamp.commanded_N == pytest.approx(
+        max(expected, former, product.resources.gripper.min_force_N), rel=0.03)
+    # at least the classic slip force with the safety factor: the moment adds to it
+    assert step.clamp.required_N >= product.process.safety_factor * mass * (9.81 + 2.0) / (2 * mu)
     assert step.clamp.slip_limit_N == pytest.approx(mass * (9.81 + 2.0) / (2 * mu), rel=1e-9)
     held = [p.name for p in step.trajectory.phases if p.name not in ("approach", "retreat")]
     for name in ("hold", "lift", "translate", "lower"):
         span = step.trajectory.phase_span(name)
         assert step.trajectory.force_at(0.5 * (span.t_start_s + span.t_end_s)) == \
-            pytest.approx(expected)
+            pytest.approx(step.clamp.commanded_N, rel=1e-12)
     assert held == ["clamp", "hold", "lift", "translate", "lower", "release"]
 
 

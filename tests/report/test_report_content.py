@@ -84,13 +84,20 @@ def test_depth_is_left_out_while_the_part_is_on_the_tray_or_carried(seed_run) ->
 
 
 @pytest.fixture(scope="module")
-def gear_blind():
-    """gear_unit ranked without the gripper screening: the best-ranked order (the collar
-    after the cover) cannot be planned, so the planner drops it and plans the next one."""
+def gear_blind(tmp_path_factory):
+    """gear_unit ranked without the gripper screening, with a delicate collar (at most 0.6 N
+    of clamp force): the best-ranked order (the collar after the cover) cannot be planned, so
+    the planner drops it and plans the next one. (With the plain collar the hold criterion
+    finds a 45 deg grasp over the cover that needs 0.84 N, and BALANCED inserts it.)"""
     from asmplan.planner.sequence import SequenceSettings
 
-    return run_product(example_path("gear_unit"),
-                       RunSettings(simulate=False, sequence=SequenceSettings(gripper_access=False)))
+    text = example_path("gear_unit").read_text()
+    start = "    start: {location: tray, xyz: [80, 220, 10], rpy: [0, 90, 0]}    # on edge, bore along x\n"
+    assert start in text
+    path = tmp_path_factory.mktemp("gear") / "gear_unit.yaml"
+    path.write_text(text.replace(start, start + "    handling: {max_clamp_force: 0.6}\n"))
+    return run_product(path, RunSettings(simulate=False,
+                                         sequence=SequenceSettings(gripper_access=False)))
 
 
 def test_plan_output_says_why_each_better_ranked_order_was_dropped(gear_blind) -> None:

@@ -42,20 +42,15 @@ def test_the_unperturbed_sample_equals_run_byte_for_byte() -> None:
     assert criteria_for(run.product) == criteria_for(same)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 17 item 1, open: BALANCED resolves unchamfered 4-50 um fits (bench/fits.py) but at "
-    "0.02 mm lateral error the bundled (chamfered) peg 'jams' 1.03 mm deep with a tilt of 0.03 "
-    "deg (slip 5.9-9.4 mm, 134-168 N; two-point contacts on the chamfer, normal 45 deg, and on "
-    "the bore), where a geometric jam needs a tilt near c/L = 17 um / 1 mm ~ 1 deg; ACCURATE "
-    "inserts it (asmplan run peg_in_hole --pose-error 0.02,0 --fidelity accurate: ok). "
-    "Cause measured: a chamfer contact kept across the fit's 8.5 um radial gap: BALANCED with "
-    "its contact distance (25 um) lowered to 8 um still jams, to 4 um inserts it; "
-    "0.05 mm along -y goes in"))
 def test_the_bundled_peg_goes_in_at_small_pose_errors() -> None:
     """Issue 17's done-when: the bundled peg (H7/g6, 0.5 mm chamfer) swept with small robot
     errors at BALANCED succeeds at every sample; the capture boundary (half the mean clearance
-    plus the chamfer, 0.51 mm) is 10-25x these offsets. Not met yet (the xfail's reason); when
-    the exact clearance-fit contact lands this passes and the strict xfail fails: drop it."""
+    plus the chamfer, 0.51 mm) is 10-25x these offsets. It was a strict xfail: at 0.02 mm the
+    peg 'jammed' 1.03 mm deep (slip 5.9-9.4 mm, 134-168 N), measured to come from a chamfer
+    contact kept across the fit's 8.5 um radial gap (BALANCED's 25 um contact distance; 4 um
+    inserts it). Since the hold criterion (issue 18) changed the peg's grasp and clamp force
+    both offsets insert at BALANCED; that contact is not addressed here, so this guards the
+    done-when with the current plan, not the cause."""
     from asmplan.knowledge.loader import load_product
     from asmplan.parts.models import ProductGeometry
     from asmplan.planner.product import plan_product
