@@ -596,7 +596,7 @@ class _Selection:
             passed = other in self.mate_partners
             # nor may it fill a bore the part crosses without a mate (a housing's relief bore
             # the shaft passes through to the far bearing): the coarse hull would stop it there
-            filled_m = 0.0 if passed or want != "coarse" else coarse_fills_path(
+            filled_m = 0.0 if passed or want != "coarse" or d > 0.0 else coarse_fills_path(
                 geometry, step, other, self.poses[other])
             model, note = self.model_of(other, want, passed or filled_m > 0.0)
             reason = (f"obstacle {where}, {d * 1e3:.1f} mm from the swept space "

@@ -238,9 +238,10 @@ def handover_fidelity(fidelity: Fidelity, step: Step) -> Fidelity:
     light part squeezed that hard creeps in the pads: the hinge's 5.5 g bronze bushings at
     30 N per finger (555 times their weight) turned 2 deg in the fingers over a 3.5 s carry
     (bushing_b, then stopped on the lug's rim) or were thrown off the pads on the lift
-    (bushing_a, 1.2 m/s), at BALANCED; at ACCURATE bushing_a slid 1.95 mm. The grip holds 33 N
-    against a 0.065 N load and resists 28 N mm against 0.14 N mm of inertial moment, so the
-    creep is the solver's, not the part's. With anchors both are carried within 0.02 deg and
+    (bushing_a, 1.2 m/s), at BALANCED; at ACCURATE bushing_a slid 1.95 mm. The grip holds
+    2 mu F = 33 N against m (g + a) = 0.065 N and, over the 6.7 mm pad contact, mu F W / 4 =
+    28 N mm per pad against at most 0.9 N mm of moment (weight and acceleration at the 13 mm
+    lever), so the creep is the solver's, not the part's. With anchors both are carried within 0.02 deg and
     pressed home. The anchors' known cost (the pads' friction adds seating force when the
     robot pushes a part into its fit; peg_in_hole at BALANCED) does not arise: the robot only
     sets the part on the mouth and the press seats it."""
