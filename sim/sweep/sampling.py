@@ -371,14 +371,15 @@ def clearance_ranges(product: Any) -> tuple[ClearanceRange, ...]:
 
     out = []
     for m in product.mates:
-        refs = {"hole_ref": f"{m.hole_part}.{m.hole_feature}", "pin_ref": f"{m.pin_part}.{m.pin_feature}"}
+        hole_ref, pin_ref = f"{m.hole_part}.{m.hole_feature}", f"{m.pin_part}.{m.pin_feature}"
         if m.fit:
             f = iso286.fit(m.fit, product.feature(m.hole_part, m.hole_feature).diameter_m)
             out.append(ClearanceRange(m.name, m.clearance_min_m, m.clearance_max_m,
                                       (f.hole.lower_m, f.hole.upper_m),
-                                      (f.shaft.lower_m, f.shaft.upper_m), **refs))
+                                      (f.shaft.lower_m, f.shaft.upper_m), hole_ref, pin_ref))
         else:
-            out.append(ClearanceRange(m.name, m.clearance_min_m, m.clearance_max_m, **refs))
+            out.append(ClearanceRange(m.name, m.clearance_min_m, m.clearance_max_m,
+                                      hole_ref=hole_ref, pin_ref=pin_ref))
     return tuple(out)
 
 
