@@ -163,3 +163,38 @@ def physics_model(geometry: ProductGeometry, part: str, level: LevelOfDetail, ne
     if level == "coarse":
         return geometry.collision_model(part, level, measured=False), ""
     return reduced or geometry.collision_model(part, level, measured=False), note
+
+
+def coarse_fills_path(geometry: ProductGeometry, step: Step, other: str, T_world_other: np.ndarray,
+                      tolerance_m: float = 0.05e-3, samples: int = 9) -> float:
+    """How deep the held part of ``step`` would sit inside ``other``'s coarse hull along its
+    insertion (from ``T_world_pre_insertion`` to ``T_world_final``, ``samples`` poses), m; 0
+    when it stays outside (within ``tolerance_m``).
+
+    A part the held one passes through without a mate (a housing whose relief bore the shaft
+    crosses on its way to the far bearing) needs that bore in the step: its one coarse hull
+    fills it, and the part would stop on a wall that is not there. A positive depth says the
+    coarse level would fill a feature the step needs (issue 19's rule: a level that must fill
+    or drop a feature says so; here the scene keeps it instead)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    from ..parts.primitive_pieces import piece_points
+
+    if step.T_world_pre_insertion is None:
+        return 0.0
+    coarse = geometry.collision_model(other, "coarse", measured=False)
+    pts = np.concatenate([piece_points(pc, 1e-5) for pc in coarse.pieces])  # part frame
+    try:
+        eq = ConvexHull(transform_points(pts, T_world_other)).equations  # n . x + d <= 0 inside
+    except QhullError:
+        return 0.0
+    held = np.asarray(geometry.mesh(step.part).vertices, float)
+    A, B = np.asarray(step.T_world_pre_insertion, float), np.asarray(step.T_world_final, float)
+    deepest = 0.0
+    for s in np.linspace(0.0, 1.0, samples):
+        T = B.copy()
+        T[:3, 3] = (1.0 - s) * A[:3, 3] + s * B[:3, 3]
+        w = transform_points(held, T)
+        depth = -(w @ eq[:, :3].T + eq[:, 3]).max(axis=1)  # > 0: inside every face
+        deepest = max(deepest, float(depth.max()))
+    return deepest if deepest > tolerance_m else 0.0

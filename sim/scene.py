@@ -116,6 +116,7 @@ from ..planner.plan import AssemblyState, Plan, Step, assembly_state
 from .bodies import (
     aabb,
     box_distance_m,
+    coarse_fills_path,
     empty_holes,
     physics_model,
     piece_corners,
@@ -611,10 +612,16 @@ class _Selection:
             # a drawn clearance) is still passed through: it keeps its holes (one coarse hull
             # would fill the bore the part enters)
             passed = other in self.mate_partners
-            model, note = self.model_of(other, want, passed)
+            # nor may it fill a bore the part crosses without a mate (a housing's relief bore
+            # the shaft passes through to the far bearing): the coarse hull would stop it there
+            filled_m = 0.0 if passed or want != "coarse" or d > 0.0 else coarse_fills_path(
+                geometry, step, other, self.poses[other])
+            model, note = self.model_of(other, want, passed or filled_m > 0.0)
             reason = (f"obstacle {where}, {d * 1e3:.1f} mm from the swept space "
                       + f"({'<=' if near else '>'} {s.near_margin_m * 1e3:.0f} mm)"
                       + (f"; mates with {self.held} (passed through)" if passed else "")
+                      + (f"; {self.held} passes through it ({filled_m * 1e3:.1f} mm inside its "
+                         "coarse hull): keeps its holes" if filled_m > 0.0 else "")
                       + f", static; level {model.level}" + (f": {note}" if note else ""))
             obstacles.append(SceneBody(other, "obstacle", False, model.level, self.poses[other],
                                        model.pieces, reason,

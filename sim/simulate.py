@@ -200,7 +200,7 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
         warns += (f"the trajectory commands {f_max:.2f} N per finger, more than the gripper's "
                   f"max_force {g_res.max_force_N:.2f} N; executed as planned",)
     t1 = time.perf_counter()
-    with BulletWorld(fidelity) as world:
+    with BulletWorld(handover_fidelity(fidelity, step)) as world:
         ids = build_scene(world, scene)
         held = scene.body(step.part)
         gripper = CoupledGripper(world, gripper_spec(g_res, f_max), traj.T_world_gripper[0],
@@ -226,6 +226,29 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
                       timing_s={"select": t1 - t0, "build": t2 - t1, "simulate": t3 - t2},
                       press=None if press is None else press.summary(),
                       pose_error=applied)
+
+
+def handover_fidelity(fidelity: Fidelity, step: Step) -> Fidelity:
+    """The fidelity the step's world runs with: ``fidelity``, with friction anchors on the
+    fingers (:attr:`Fidelity.friction_anchor`) when the step hands its part to the cell's
+    press.
+
+    Such a grip is planned at half the gripper's push capacity whatever the part weighs
+    (:attr:`asmplan.planner.press.PressOperation.gripper_resistance_N`), and without anchors a
+    light part squeezed that hard creeps in the pads: the hinge's 5.5 g bronze bushings at
+    30 N per finger (555 times their weight) turned 2 deg in the fingers over a 3.5 s carry
+    (bushing_b, then stopped on the lug's rim) or were thrown off the pads on the lift
+    (bushing_a, 1.2 m/s), at BALANCED; at ACCURATE bushing_a slid 1.95 mm. The grip holds
+    2 mu F = 33 N against m (g + a) = 0.065 N and, over the 6.7 mm pad contact, mu F W / 4 =
+    28 N mm per pad against at most 0.9 N mm of moment (weight and acceleration at the 13 mm
+    lever), so the creep is the solver's, not the part's. With anchors both are carried within 0.02 deg and
+    pressed home. The anchors' known cost (the pads' friction adds seating force when the
+    robot pushes a part into its fit; peg_in_hole at BALANCED) does not arise: the robot only
+    sets the part on the mouth and the press seats it."""
+    press = step.press
+    if fidelity.friction_anchor or press is None or press.by != "press":
+        return fidelity
+    return replace(fidelity, friction_anchor=True)
 
 
 @dataclass(frozen=True, eq=False)

@@ -38,8 +38,11 @@ clearance
     shaft's actual sizes, each normal, centred in its tolerance zone with 6 sigma = the zone
     width and truncated to the zone (out-of-zone parts are rejected at inspection), the
     clearance being their difference; for a declared range the clearance, normal, centred in
-    the range with 6 sigma = its width, truncated to it. Each mate draws its own pair (a
-    feature in two mates is not one shared size). A sample whose clearance is negative
+    the range with 6 sigma = its width, truncated to it. Sizes are drawn per feature (part
+    feature instance) and sample, from the stream ``size/<part>.<feature>``: two mates that
+    share a feature (a bore taking a piston and seating a cap) see the same actual size, and
+    the geometry builds it once (:attr:`SampleParams.size_deviation_m`); a feature named by
+    two ISO fits takes the zone of the first mate in the product. A sample whose clearance is negative
     interferes: its step is pressed against the Lame force of THAT interference
     (:func:`.task.sample_press_step`), or fails ``press_required`` when neither the grip nor
     the cell's press can give it. ``"uniform"`` over the range, or

@@ -120,6 +120,11 @@ class SampleParams:
         Friction coefficient per part name.
     pose : dict of str to PoseError
         Robot error per step name.
+    size_deviation_m : dict of str to float
+        Actual size minus nominal diameter per feature (``"part.feature"``), m: one draw per
+        feature and sample, so every mate that shares the feature sees the same size (the
+        ``"sizes"`` model of an ISO fit; empty otherwise). The clearance of a mate between two
+        drawn features is their difference (``clearance_m``).
     """
 
     index: int
@@ -127,6 +132,7 @@ class SampleParams:
     clearance_m: dict[str, float] = field(default_factory=dict)
     friction: dict[str, float] = field(default_factory=dict)
     pose: dict[str, PoseError] = field(default_factory=dict)
+    size_deviation_m: dict[str, float] = field(default_factory=dict)
 
     def pose_error(self, step: str) -> PoseError:
         """The robot error of ``step`` (zero when the sweep has none for it)."""
@@ -157,6 +163,7 @@ class SampleParams:
             "friction": dict(self.friction),
             "pose": {k: {"lateral_m": list(p.lateral_m), "tilt_rad": list(p.tilt_rad)}
                      for k, p in self.pose.items()},
+            "size_deviation_m": dict(self.size_deviation_m),
         }
 
     @classmethod
@@ -168,6 +175,7 @@ class SampleParams:
             friction={k: float(v) for k, v in data.get("friction", {}).items()},
             pose={k: PoseError(tuple(v["lateral_m"]), tuple(v["tilt_rad"]))
                   for k, v in data.get("pose", {}).items()},
+            size_deviation_m={k: float(v) for k, v in data.get("size_deviation_m", {}).items()},
         )
 
 
@@ -178,6 +186,10 @@ class ClearanceRange:
     ``hole_zone_m``/``shaft_zone_m``: the (lower, upper) deviations of the hole's and the
     shaft's ISO 286 tolerance zones when the mate is an ISO fit (their difference spans
     [min_m, max_m]); None for a mate declared by its clearance range.
+
+    ``hole_ref``/``pin_ref``: the features the mate joins (``"part.feature"``). The ``"sizes"``
+    model draws one actual size per feature and sample, shared by every mate naming it; left
+    empty, the mate's two sides are features of its own (``"<mate>:hole"``, ``"<mate>:pin"``).
     """
 
     mate: str
@@ -185,6 +197,13 @@ class ClearanceRange:
     max_m: float
     hole_zone_m: tuple[float, float] | None = None
     shaft_zone_m: tuple[float, float] | None = None
+    hole_ref: str = ""
+    pin_ref: str = ""
+
+    @property
+    def size_refs(self) -> tuple[str, str]:
+        """The (hole, pin) feature keys the ``"sizes"`` model draws a size for."""
+        return (self.hole_ref or f"{self.mate}:hole", self.pin_ref or f"{self.mate}:pin")
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.min_m) and math.isfinite(self.max_m) and self.min_m <= self.max_m):
@@ -213,12 +232,29 @@ class ClearanceRange:
             mid, half = 0.5 * (self.min_m + self.max_m), 0.5 * (self.max_m - self.min_m)
             return mid + half * _truncated_standard_normal(rng) / _TRUNC_Z
 
-        def size(zone: tuple[float, float]) -> float:
-            lo, hi = zone
-            return 0.5 * (lo + hi) + 0.5 * (hi - lo) * _truncated_standard_normal(rng) / _TRUNC_Z
+        hole = _zone_size(rng, self.hole_zone_m)
+        return hole - _zone_size(rng, self.shaft_zone_m)
 
-        hole = size(self.hole_zone_m)
-        return hole - size(self.shaft_zone_m)
+
+def _zone_size(rng: np.random.Generator, zone: tuple[float, float]) -> float:
+    """An actual size deviation in a tolerance zone: normal, centred, 6 sigma = the zone width,
+    truncated to the zone, m."""
+    lo, hi = zone
+    return 0.5 * (lo + hi) + 0.5 * (hi - lo) * _truncated_standard_normal(rng) / _TRUNC_Z
+
+
+def feature_zones(clearances: Sequence[ClearanceRange]) -> dict[str, tuple[float, float]]:
+    """The tolerance zone of every feature an ISO-fit mate in ``clearances`` names, by its
+    ``size_refs`` key. A feature named by several mates takes the zone of the first (in the
+    given order, the product's); the others must agree for one part to satisfy both."""
+    zones: dict[str, tuple[float, float]] = {}
+    for c in clearances:
+        if c.hole_zone_m is None or c.shaft_zone_m is None or c.max_m == c.min_m:
+            continue
+        hole, pin = c.size_refs
+        zones.setdefault(hole, c.hole_zone_m)
+        zones.setdefault(pin, c.shaft_zone_m)
+    return zones
 
 
 def factor_rng(seed: int, index: int, name: str) -> np.random.Generator:
@@ -277,9 +313,18 @@ def draw_sample(
     if index < 0:
         raise ValueError(f"draw_sample: expected index >= 0, found {index}")
     clear: dict[str, float] = {}
+    sizes: dict[str, float] = {}
+    if "clearance" in spec.vary and spec.clearance_distribution == "sizes":
+        # one actual size per feature: the mates sharing it see the same part
+        sizes = {ref: _zone_size(factor_rng(spec.seed, index, f"size/{ref}"), zone)
+                 for ref, zone in sorted(feature_zones(clearances).items())}
     for c in sorted(clearances, key=lambda c: c.mate):
         if "clearance" not in spec.vary or c.max_m == c.min_m:
             continue  # not varied: the mate keeps its declared fit, as `asmplan run` has it
+        hole_ref, pin_ref = c.size_refs
+        if hole_ref in sizes and pin_ref in sizes:
+            clear[c.mate] = sizes[hole_ref] - sizes[pin_ref]
+            continue
         rng = factor_rng(spec.seed, index, f"clearance/{c.mate}")
         if spec.clearance_distribution == "sizes":
             clear[c.mate] = float(c.draw_sizes_m(rng))
@@ -304,7 +349,8 @@ def draw_sample(
         lateral = _planar(rng, spec.pose_lateral_m, spec.pose_distribution)
         tilt = _planar(rng, spec.pose_angular_rad, spec.pose_distribution)
         pose[step] = PoseError(lateral, tilt)
-    return SampleParams(index=index, seed=spec.seed, clearance_m=clear, friction=fric, pose=pose)
+    return SampleParams(index=index, seed=spec.seed, clearance_m=clear, friction=fric, pose=pose,
+                        size_deviation_m={k: float(v) for k, v in sizes.items()})
 
 
 def draw_samples(
@@ -325,13 +371,15 @@ def clearance_ranges(product: Any) -> tuple[ClearanceRange, ...]:
 
     out = []
     for m in product.mates:
+        hole_ref, pin_ref = f"{m.hole_part}.{m.hole_feature}", f"{m.pin_part}.{m.pin_feature}"
         if m.fit:
             f = iso286.fit(m.fit, product.feature(m.hole_part, m.hole_feature).diameter_m)
             out.append(ClearanceRange(m.name, m.clearance_min_m, m.clearance_max_m,
                                       (f.hole.lower_m, f.hole.upper_m),
-                                      (f.shaft.lower_m, f.shaft.upper_m)))
+                                      (f.shaft.lower_m, f.shaft.upper_m), hole_ref, pin_ref))
         else:
-            out.append(ClearanceRange(m.name, m.clearance_min_m, m.clearance_max_m))
+            out.append(ClearanceRange(m.name, m.clearance_min_m, m.clearance_max_m,
+                                      hole_ref=hole_ref, pin_ref=pin_ref))
     return tuple(out)
 
 

@@ -84,24 +84,49 @@ def sample_press_step(plan: Any, index: int, product: Any, geometry: Any,
 
 
 def perturb_product(product: Any, params: SampleParams) -> Any:
-    """The product as sample ``params`` has it: its clearances and friction coefficients.
+    """The product as sample ``params`` has it: its actual sizes, clearances and friction.
 
-    A mate's clearance ``c`` replaces its declared range (``clearance_min_m = clearance_max_m
-    = c``, ``fit`` None), so the geometry (:func:`asmplan.parts.geometry.fitted_sizes`) gives
-    the hole ``nominal + c/2`` and the pin ``nominal - c/2`` (symmetric about the nominal,
-    whatever the fit's deviations were). Friction replaces each part's coefficient. Mates and
-    parts not in ``params`` are unchanged.
+    A feature with a drawn size (``params.size_deviation_m``, one per feature and sample) is
+    built at its nominal diameter plus that deviation, whichever mates share it. A mate's
+    clearance ``c`` replaces its declared range (``clearance_min_m = clearance_max_m = c``,
+    ``fit`` None); between two drawn features ``c`` is their actual difference, so the geometry
+    (:func:`asmplan.parts.geometry.fitted_sizes`) builds both at their drawn sizes. A mate
+    with a clearance but no drawn sizes (a declared range, or the ``"uniform"`` and
+    ``"truncnormal"`` clearance models) gets the hole ``nominal + c/2`` and the pin ``nominal
+    - c/2``, or, when one side is a drawn feature, keeps that side and gives the other the
+    clearance. Friction replaces each part's coefficient. Mates and parts not in ``params``
+    are unchanged.
     """
     from dataclasses import replace
 
-    mates = tuple(
-        replace(m, clearance_min_m=float(params.clearance_m[m.name]),
-                clearance_max_m=float(params.clearance_m[m.name]), fit=None)
-        if m.name in params.clearance_m else m
-        for m in product.mates)
-    parts = tuple(replace(p, friction=float(params.friction[p.name]))
-                  if p.name in params.friction else p for p in product.parts)
-    return replace(product, mates=mates, parts=parts)
+    actual = {}  # (part, feature) -> built diameter, m
+    for part in product.parts:
+        for f in part.features:
+            if f.ref in params.size_deviation_m:
+                actual[(f.part, f.name)] = f.diameter_m + float(params.size_deviation_m[f.ref])
+    mates = []
+    for m in product.mates:
+        if m.name not in params.clearance_m:
+            mates.append(m)
+            continue
+        c = float(params.clearance_m[m.name])
+        hole, pin = (m.hole_part, m.hole_feature), (m.pin_part, m.pin_feature)
+        if hole in actual and pin in actual:
+            c = actual[hole] - actual[pin]
+        elif hole in actual:
+            actual[pin] = actual[hole] - c
+        elif pin in actual:
+            actual[hole] = actual[pin] + c
+        mates.append(replace(m, clearance_min_m=c, clearance_max_m=c, fit=None))
+
+    def part_of(p: Any) -> Any:
+        if any((f.part, f.name) in actual for f in p.features):
+            p = replace(p, features=tuple(
+                replace(f, diameter_m=actual[(f.part, f.name)]) if (f.part, f.name) in actual
+                else f for f in p.features))
+        return replace(p, friction=float(params.friction[p.name])) if p.name in params.friction else p
+
+    return replace(product, mates=tuple(mates), parts=tuple(part_of(p) for p in product.parts))
 
 
 @dataclass(frozen=True, eq=False)
