@@ -279,7 +279,7 @@ def contact_figures(fid: Any) -> list[AccuracyFigure]:
             f"{'in' if expect_in else 'on the rim'})"))
     for tilt in DRIFT_TILTS_RAD:
         t0 = time.perf_counter()
-        d = held_drift_m(fid, tilt, coupled=True)
+        d = held_drift_m(fid, tilt)
         out.append(AccuracyFigure(fid.name, f"held drift, closing axis at {tilt:.2f} rad",
                                   "held_drift_m", d, "m", time.perf_counter() - t0))
     return out
@@ -466,7 +466,7 @@ def peer_rows(fid: Any, iterations: int = 8, log: Callable[[str], None] | None =
     # held drift
     for tilt in DRIFT_TILTS_RAD:
         t0 = time.perf_counter()
-        d_pb = held_drift_m(fid, tilt, coupled=True)
+        d_pb = held_drift_m(fid, tilt)
         traj = drift_trajectory(tilt)
         pb_cost = (time.perf_counter() - t0) / float(traj.t_s[-1])
         bp = BoxPart()

@@ -38,6 +38,7 @@ from asmplan.sim.fidelity import Fidelity
 from asmplan.sim.gripper import CoupledGripper, Gripper, GripperSpec
 from asmplan.sim.pose_error import PoseError, apply_pose_error
 from asmplan.sim.records import StepOutcome, StepRecord, SuccessCriteria
+from asmplan.sim.simulate import step_gripper
 
 G = 9.81
 """Gravity in the scenes, m/s^2 (PyBullet's world is set up with the same value)."""
@@ -131,16 +132,9 @@ def run_seed_cycle(fidelity: Fidelity, part: BoxPart | None = None,
 # --------------------------------------------------------------------------------------------
 # Held-part drift along a tilted closing axis
 # --------------------------------------------------------------------------------------------
-def held_drift_m(fidelity: Fidelity, tilt_rad: float, part: BoxPart | None = None,
-                 coupled: bool = False) -> float:
-    """Largest travel (m) of ``part`` along the gripper's closing axis, relative to the palm,
-    over the seed cycle's clamp-to-lower span (0.1-3.5 s), with the closing axis tilted
-    ``tilt_rad`` from horizontal (pi/2: vertical, the part hangs on the lower finger).
-
-    The part starts held between the pads in the air (no table: with a tilted closing axis
-    it cannot stand between them) and the seed cycle's motion is followed, its commanded
-    force never below the hold value (1.57 N) before the release.
-    """
+def held_drift_record(fidelity: Fidelity, tilt_rad: float, part: BoxPart | None = None,
+                      synchronised: bool = True) -> StepRecord:
+    """The record of the held-drift scene (:func:`held_drift_m`)."""
     part = part or BoxPart()
     traj = drift_trajectory(tilt_rad)
     T_tcp = traj.T_world_gripper[0]
@@ -148,10 +142,29 @@ def held_drift_m(fidelity: Fidelity, tilt_rad: float, part: BoxPart | None = Non
         body = world.add_body((box_piece(part.size_m),), part.mass_kg, T_tcp.copy(),
                               inertia_kgm2=box_inertia(part.mass_kg, part.size_m),
                               friction=part.friction, name="box")
-        cls = CoupledGripper if coupled else Gripper
-        gripper = cls(world, GripperSpec(), T_tcp, opening_m=part.size_m[1],
-                      carried_mass_kg=part.mass_kg)
+        gripper = (step_gripper(world, GripperSpec(), traj, part.size_m[1]) if synchronised
+                   else Gripper(world, GripperSpec(synchronised=False), T_tcp,
+                                opening_m=part.size_m[1]))
         record, _ = execute_step(world, gripper, body, traj)
+    return record
+
+
+def held_drift_m(fidelity: Fidelity, tilt_rad: float, part: BoxPart | None = None,
+                 synchronised: bool = True) -> float:
+    """Largest travel (m) of ``part`` along the gripper's closing axis, relative to the palm,
+    over the seed cycle's clamp-to-lower span (0.1-3.5 s), with the closing axis tilted
+    ``tilt_rad`` from horizontal (pi/2: vertical, the part hangs on the lower finger).
+
+    The part starts held between the pads in the air (no table: with a tilted closing axis
+    it cannot stand between them) and the seed cycle's motion is followed, its commanded
+    force never below the hold value (1.57 N) before the release.
+
+    The gripper (:class:`GripperSpec` defaults) is built as every pipeline step builds its
+    own (:func:`asmplan.sim.simulate.step_gripper`: jaws synchronised like a rack and
+    pinion); ``synchronised=False`` floats its jaws instead (the model before issue 16: the
+    pair slides downhill until a finger reaches its joint limit).
+    """
+    record = held_drift_record(fidelity, tilt_rad, part, synchronised)
     t = record.t_s
     span = (t >= 0.1) & (t <= 3.5)
     y = np.array([(np.linalg.inv(Tg) @ Tp)[1, 3] for Tg, Tp
@@ -284,7 +297,9 @@ class PinHole:
     clamp_force_N: float = 5.0
     grasp_above_centre_m: float = 0.012
     seat_gap_m: float = 0.2e-3  # the gripper stops this far above the hole floor
-    coupled_gripper: bool = False  # synchronised fingers (CoupledGripper), as a real gripper
+    # the pipeline's CoupledGripper (open phases at the grasp's opening) instead of a Gripper
+    # (open phases fully open); both have synchronised jaws
+    coupled_gripper: bool = False
 
 
 def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_m: float = 0.0,
@@ -316,8 +331,7 @@ def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_
         T_grasp = pose((0.0, 0.0, T_pin[2, 3] + s.grasp_above_centre_m))
         gripper: Gripper
         if s.coupled_gripper:
-            gripper = CoupledGripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004,
-                                     carried_mass_kg=mass)
+            gripper = CoupledGripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004)
         else:
             gripper = Gripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004)
         floor_z = s.block_size_m[2] - s.hole_depth_m
@@ -454,6 +468,7 @@ __all__ = [
     "entered_depth_m",
     "heavy_on_light",
     "held_drift_m",
+    "held_drift_record",
     "hold_lift_trajectory",
     "hold_slip_m",
     "jam_depth_m",

@@ -119,8 +119,7 @@ def test_gear_unit_collar_slides_onto_the_shaft_without_dragging_it():
         gripper = CoupledGripper(
             world, gripper_spec(product.resources.gripper,
                                 float(np.max(step.trajectory.clamp_force_N))),
-            step.trajectory.T_world_gripper[0], opening_m=float(step.grasp.open_width_m),
-            carried_mass_kg=scene.body("collar").mass_kg)
+            step.trajectory.T_world_gripper[0], opening_m=float(step.grasp.open_width_m))
         shaft_before = world.pose(ids["shaft"])[:3, 3]
         _, outcome = execute_step(world, gripper, ids["collar"], step.trajectory,
                                   criteria_for(product), T_world_part_target=step.T_world_final,
