@@ -36,9 +36,11 @@ from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.execute import execute_step
 from asmplan.sim.fidelity import Fidelity
 from asmplan.sim.gripper import CoupledGripper, Gripper, GripperSpec
+from asmplan.sim.guard import SceneWatch
 from asmplan.sim.pose_error import PoseError, apply_pose_error
 from asmplan.sim.records import StepOutcome, StepRecord, SuccessCriteria
 from asmplan.sim.simulate import step_gripper
+from asmplan.sim.verdicts import Failure, SceneGuard
 
 G = 9.81
 """Gravity in the scenes, m/s^2 (PyBullet's world is set up with the same value)."""
@@ -457,6 +459,7 @@ __all__ = [
     "SEED_PHASE_TABLE_CSV",
     "BoxPart",
     "G",
+    "HeavyOnLight",
     "JamScene",
     "PinHole",
     "add_box_and_gripper",
@@ -482,10 +485,25 @@ __all__ = [
 ]
 
 
-def heavy_on_light(fidelity: Fidelity, settle_s: float = 1.0) -> tuple[float, float]:
-    """(largest cube speed, m/s; the block's sink, m): a 120 x 120 x 900 mm, 100 kg block
-    resting on four 10 mm, 1 g cubes on the ground, no gripper, for ``settle_s`` (the scene
-    of ``tests/sim/test_guards.py`` without the gripper's cycle). Analytic: nothing moves."""
+@dataclass(frozen=True)
+class HeavyOnLight:
+    """Result of :func:`heavy_on_light`: the fastest cube (m/s) and the block's sink (m) up
+    to the end of the scene, the simulated time it ran (s), and the guard's failure that
+    ended it early (None: it ran to the end)."""
+
+    max_cube_speed_mps: float
+    sink_m: float
+    t_end_s: float
+    failure: Failure | None
+
+
+def heavy_on_light(fidelity: Fidelity, settle_s: float = 1.0,
+                   guard: SceneGuard | None = None) -> HeavyOnLight:
+    """A 120 x 120 x 900 mm, 100 kg block resting on four 10 mm, 1 g cubes on the ground,
+    no gripper, for ``settle_s`` (the scene of ``tests/sim/test_guards.py`` without the
+    gripper's cycle), watched as a step is (:class:`asmplan.sim.guard.SceneWatch` with
+    ``guard``, every record row): the scene ends at the guard's first failure. Analytic:
+    nothing moves. Cube speeds are sampled every physics step."""
     cube = (0.01, 0.01, 0.01)
     block = (0.12, 0.12, 0.9)
     with BulletWorld(fidelity) as world:
@@ -501,9 +519,17 @@ def heavy_on_light(fidelity: Fidelity, settle_s: float = 1.0) -> tuple[float, fl
         T[:3, 3] = (0.0, 0.0, 0.01 + 0.45)
         top = world.add_body((box_piece(block),), 100.0, T,
                              inertia_kgm2=box_inertia(100.0, block), name="block")
+        watch = SceneWatch(world, world.dynamic_bodies(), guard or SceneGuard())
+        k = fidelity.record_every_steps
         vmax = 0.0
-        for _ in range(round(settle_s / fidelity.dt_s)):
+        failure = None
+        n = round(settle_s / fidelity.dt_s)
+        i = 0
+        while i < n and failure is None:
             world.step()
+            i += 1
             vmax = max(vmax, max(float(np.linalg.norm(world.velocity(c)[0])) for c in cubes))
+            if i % k == 0 or i == n:
+                failure = watch.check(i * fidelity.dt_s)
         sink = 0.46 - float(world.pose(top)[2, 3])
-    return vmax, sink
+    return HeavyOnLight(vmax, sink, i * fidelity.dt_s, failure)
