@@ -224,7 +224,8 @@ def execute_step(
     T_grip_part_ref: np.ndarray | None = None
     nan_detected = False
     mode_open: bool | None = None
-    watch = SceneWatch(world, [b for b in world.dynamic_bodies() if b != gripper.body], guard)
+    watch = SceneWatch(world, [b for b in world.dynamic_bodies() if b != gripper.body], guard,
+                       not_sinking=(part_body,))
     stop: Failure | None = None
     lower_contacts: dict[int, Contacts] = {}  # record row -> the part's non-finger contacts
     rest = RestKeeper(world, gripper.body, part_body) if fid.rest_window_s > 0 else None
