@@ -976,14 +976,6 @@ class BulletWorld:
         ps, _ = self._joint_scales(body, joints)
         return np.array([s[0] for s in st], dtype=float) / np.array(ps)
 
-    def joint_positions_velocities(self, body: int, joints: Sequence[int]
-                                   ) -> tuple[np.ndarray, np.ndarray]:
-        """Joint positions and velocities in one query, each (len(joints),)."""
-        st = pybullet.getJointStates(body, list(joints), physicsClientId=self.client_id)
-        ps = np.array(self._joint_scales(body, joints)[0])
-        return (np.array([s[0] for s in st], dtype=float) / ps,
-                np.array([s[1] for s in st], dtype=float) / ps)
-
     def apply_force(
         self, body: int, link: int, force_N: Sequence[float] | np.ndarray,
         position_m: Sequence[float] | np.ndarray,

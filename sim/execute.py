@@ -14,7 +14,7 @@ Definitions
   (cancels the constraint's lag). In "approach"/"retreat" the fingers
   are position-controlled open; in every other phase they are force-controlled.
 * Finger frame: the measured TCP frame shifted along its y axis to the midpoint of the two
-  pads' faces (the pads may float together along y under force control). Slip is the change
+  pads' faces (synchronised jaws keep it on the TCP; floating ones move together along y). Slip is the change
   of the part's pose in this frame since the end of the "clamp" phase (first tick at or after
   it): translation norm (m) and rotation angle (rad).
 * Measured clamp force of a finger: sum of the contact normal forces between its pad and the

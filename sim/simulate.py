@@ -212,7 +212,6 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
     t1 = time.perf_counter()
     with BulletWorld(fidelity) as world:
         ids = build_scene(world, scene)
-        held = scene.body(step.part)
         gripper = step_gripper(world, gripper_spec(g_res, f_max), traj,
                                float(step.grasp.open_width_m))
         t2 = time.perf_counter()
