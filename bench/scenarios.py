@@ -163,8 +163,8 @@ def held_drift_m(fidelity: Fidelity, tilt_rad: float, part: BoxPart | None = Non
 
     The gripper (:class:`GripperSpec` defaults) is built as every pipeline step builds its
     own (:func:`asmplan.sim.simulate.step_gripper`: jaws synchronised like a rack and
-    pinion); ``synchronised=False`` floats its jaws instead (the model before issue 16: the
-    pair slides downhill until a finger reaches its joint limit).
+    pinion); ``synchronised=False`` floats its jaws instead (the plain gripper before: the
+    part slides downhill until a finger reaches its joint limit).
     """
     record = held_drift_record(fidelity, tilt_rad, part, synchronised)
     t = record.t_s
@@ -299,8 +299,10 @@ class PinHole:
     clamp_force_N: float = 5.0
     grasp_above_centre_m: float = 0.012
     seat_gap_m: float = 0.2e-3  # the gripper stops this far above the hole floor
-    # the pipeline's CoupledGripper (open phases at the grasp's opening) instead of a Gripper
-    # (open phases fully open); both have synchronised jaws
+    # True: the pipeline's gripper (CoupledGripper: synchronised jaws, open phases at the
+    # grasp's opening); False: floating jaws (GripperSpec(synchronised=False)), fully open in
+    # the open phases: the scene the stored interference resolutions (sim/fidelity.py) were
+    # measured with, its pin held off-centre where a finger first touched it
     coupled_gripper: bool = False
 
 
@@ -335,7 +337,8 @@ def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_
         if s.coupled_gripper:
             gripper = CoupledGripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004)
         else:
-            gripper = Gripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004)
+            gripper = Gripper(world, GripperSpec(synchronised=False), T_grasp,
+                              opening_m=2 * r_pin + 0.004)
         floor_z = s.block_size_m[2] - s.hole_depth_m
         seated_centre_z = floor_z + s.pin_length_m / 2.0
         lift_z = s.block_size_m[2] + 0.015 + s.pin_length_m / 2.0 + s.grasp_above_centre_m

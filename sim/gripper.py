@@ -96,9 +96,10 @@ class GripperSpec:
     synchronised : bool
         Couple the two jaws like the rack and pinion of a real parallel gripper (equal travel,
         :meth:`BulletWorld.couple_joints`). False leaves them floating together along the
-        closing axis under force control: a part and its fingers then slide downhill at
-        ``(m + 2 m_finger) g sin t / (2 finger_damping)`` with the closing axis tilted by t
-        (kept to compare against; no pipeline gripper uses it).
+        closing axis under force control, the fingers' own weight fed forward: a part then
+        slides downhill at ``m g sin t / (2 finger_damping)`` with the closing axis tilted by
+        t (the model before; kept for the scenes measured with it, no pipeline gripper uses
+        it).
     synchronisation_max_force_N : float
         Bound of the coupling's internal force, N (what the mechanism can carry along the
         closing axis before it gives).
@@ -192,6 +193,8 @@ class Gripper:
     ) -> None:
         self.world = world
         self.spec = spec
+        self._palm_v: np.ndarray | None = None
+        self._palm_step = 0
         pad = np.asarray(spec.pad_size_m, dtype=float)
         palm = np.asarray(spec.palm_size_m, dtype=float)
         half_open = spec.max_opening_m / 2.0
@@ -326,7 +329,8 @@ class Gripper:
                 self._torque = True
             # one call per step: PyBullet adds repeated TORQUE_CONTROL forces within a step
             f = force_N * self._touch_ramp()
-            self.world.set_joint_forces(self.body, FINGER_LINKS, (f, f))
+            w = 0.0 if self.spec.synchronised else 0.5 * self._finger_load_along_closing_N()
+            self.world.set_joint_forces(self.body, FINGER_LINKS, (f + w, f - w))
         else:
             self.world.set_joint_velocity_targets(
                 self.body, FINGER_LINKS, self._approach_speeds_mps(v), (force_N, force_N)
@@ -388,6 +392,22 @@ class Gripper:
             common = min(free) if free else min(out)
             return common, common
         return out[0], out[1]
+
+    def _finger_load_along_closing_N(self) -> float:
+        """Floating jaws only: the fingers' own weight and inertia along the TCP's +y axis,
+        ``2 m_f (g - a_palm) . y`` (palm acceleration over the last step), N, split +W/2 on
+        finger 1 and -W/2 on finger 2 so the empty pair does not slide downhill (the model
+        before synchronised jaws, kept as it was: the scenes of the stored interference
+        resolutions, ``bench/scenarios.py`` ``PinHole``, were measured with it)."""
+        w = self.world
+        v = w.velocity(self.body)[0]
+        step = w.step_count
+        a = np.zeros(3)
+        if self._palm_v is not None and step > self._palm_step:
+            a = (v - self._palm_v) / ((step - self._palm_step) * w.fidelity.dt_s)
+        self._palm_v, self._palm_step = v, step
+        y_world = self.tcp_pose()[:3, 1]
+        return float(2.0 * self.spec.finger_mass_kg * ((w.gravity_mps2 - a) @ y_world))
 
     def command_open(self, opening_m: float | None = None) -> None:
         """Open mode: position-control both fingers to ``opening_m`` (default fully open)."""
