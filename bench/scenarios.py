@@ -36,8 +36,11 @@ from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.execute import execute_step
 from asmplan.sim.fidelity import Fidelity
 from asmplan.sim.gripper import CoupledGripper, Gripper, GripperSpec
+from asmplan.sim.guard import SceneWatch
 from asmplan.sim.pose_error import PoseError, apply_pose_error
 from asmplan.sim.records import StepOutcome, StepRecord, SuccessCriteria
+from asmplan.sim.simulate import step_gripper
+from asmplan.sim.verdicts import Failure, SceneGuard
 
 G = 9.81
 """Gravity in the scenes, m/s^2 (PyBullet's world is set up with the same value)."""
@@ -131,16 +134,9 @@ def run_seed_cycle(fidelity: Fidelity, part: BoxPart | None = None,
 # --------------------------------------------------------------------------------------------
 # Held-part drift along a tilted closing axis
 # --------------------------------------------------------------------------------------------
-def held_drift_m(fidelity: Fidelity, tilt_rad: float, part: BoxPart | None = None,
-                 coupled: bool = False) -> float:
-    """Largest travel (m) of ``part`` along the gripper's closing axis, relative to the palm,
-    over the seed cycle's clamp-to-lower span (0.1-3.5 s), with the closing axis tilted
-    ``tilt_rad`` from horizontal (pi/2: vertical, the part hangs on the lower finger).
-
-    The part starts held between the pads in the air (no table: with a tilted closing axis
-    it cannot stand between them) and the seed cycle's motion is followed, its commanded
-    force never below the hold value (1.57 N) before the release.
-    """
+def held_drift_record(fidelity: Fidelity, tilt_rad: float, part: BoxPart | None = None,
+                      synchronised: bool = True) -> StepRecord:
+    """The record of the held-drift scene (:func:`held_drift_m`)."""
     part = part or BoxPart()
     traj = drift_trajectory(tilt_rad)
     T_tcp = traj.T_world_gripper[0]
@@ -148,10 +144,29 @@ def held_drift_m(fidelity: Fidelity, tilt_rad: float, part: BoxPart | None = Non
         body = world.add_body((box_piece(part.size_m),), part.mass_kg, T_tcp.copy(),
                               inertia_kgm2=box_inertia(part.mass_kg, part.size_m),
                               friction=part.friction, name="box")
-        cls = CoupledGripper if coupled else Gripper
-        gripper = cls(world, GripperSpec(), T_tcp, opening_m=part.size_m[1],
-                      carried_mass_kg=part.mass_kg)
+        gripper = (step_gripper(world, GripperSpec(), traj, part.size_m[1]) if synchronised
+                   else Gripper(world, GripperSpec(synchronised=False), T_tcp,
+                                opening_m=part.size_m[1]))
         record, _ = execute_step(world, gripper, body, traj)
+    return record
+
+
+def held_drift_m(fidelity: Fidelity, tilt_rad: float, part: BoxPart | None = None,
+                 synchronised: bool = True) -> float:
+    """Largest travel (m) of ``part`` along the gripper's closing axis, relative to the palm,
+    over the seed cycle's clamp-to-lower span (0.1-3.5 s), with the closing axis tilted
+    ``tilt_rad`` from horizontal (pi/2: vertical, the part hangs on the lower finger).
+
+    The part starts held between the pads in the air (no table: with a tilted closing axis
+    it cannot stand between them) and the seed cycle's motion is followed, its commanded
+    force never below the hold value (1.57 N) before the release.
+
+    The gripper (:class:`GripperSpec` defaults) is built as every pipeline step builds its
+    own (:func:`asmplan.sim.simulate.step_gripper`: jaws synchronised like a rack and
+    pinion); ``synchronised=False`` floats its jaws instead (the plain gripper before: the
+    part slides downhill until a finger reaches its joint limit).
+    """
+    record = held_drift_record(fidelity, tilt_rad, part, synchronised)
     t = record.t_s
     span = (t >= 0.1) & (t <= 3.5)
     y = np.array([(np.linalg.inv(Tg) @ Tp)[1, 3] for Tg, Tp
@@ -284,7 +299,11 @@ class PinHole:
     clamp_force_N: float = 5.0
     grasp_above_centre_m: float = 0.012
     seat_gap_m: float = 0.2e-3  # the gripper stops this far above the hole floor
-    coupled_gripper: bool = False  # synchronised fingers (CoupledGripper), as a real gripper
+    # True: the pipeline's gripper (CoupledGripper: synchronised jaws, open phases at the
+    # grasp's opening); False: floating jaws (GripperSpec(synchronised=False)), fully open in
+    # the open phases: the scene the stored interference resolutions (sim/fidelity.py) were
+    # measured with, its pin held off-centre where a finger first touched it
+    coupled_gripper: bool = False
 
 
 def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_m: float = 0.0,
@@ -316,10 +335,10 @@ def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_
         T_grasp = pose((0.0, 0.0, T_pin[2, 3] + s.grasp_above_centre_m))
         gripper: Gripper
         if s.coupled_gripper:
-            gripper = CoupledGripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004,
-                                     carried_mass_kg=mass)
+            gripper = CoupledGripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004)
         else:
-            gripper = Gripper(world, GripperSpec(), T_grasp, opening_m=2 * r_pin + 0.004)
+            gripper = Gripper(world, GripperSpec(synchronised=False), T_grasp,
+                              opening_m=2 * r_pin + 0.004)
         floor_z = s.block_size_m[2] - s.hole_depth_m
         seated_centre_z = floor_z + s.pin_length_m / 2.0
         lift_z = s.block_size_m[2] + 0.015 + s.pin_length_m / 2.0 + s.grasp_above_centre_m
@@ -443,6 +462,7 @@ __all__ = [
     "SEED_PHASE_TABLE_CSV",
     "BoxPart",
     "G",
+    "HeavyOnLight",
     "JamScene",
     "PinHole",
     "add_box_and_gripper",
@@ -454,6 +474,7 @@ __all__ = [
     "entered_depth_m",
     "heavy_on_light",
     "held_drift_m",
+    "held_drift_record",
     "hold_lift_trajectory",
     "hold_slip_m",
     "jam_depth_m",
@@ -467,10 +488,25 @@ __all__ = [
 ]
 
 
-def heavy_on_light(fidelity: Fidelity, settle_s: float = 1.0) -> tuple[float, float]:
-    """(largest cube speed, m/s; the block's sink, m): a 120 x 120 x 900 mm, 100 kg block
-    resting on four 10 mm, 1 g cubes on the ground, no gripper, for ``settle_s`` (the scene
-    of ``tests/sim/test_guards.py`` without the gripper's cycle). Analytic: nothing moves."""
+@dataclass(frozen=True)
+class HeavyOnLight:
+    """Result of :func:`heavy_on_light`: the fastest cube (m/s) and the block's sink (m) up
+    to the end of the scene, the simulated time it ran (s), and the guard's failure that
+    ended it early (None: it ran to the end)."""
+
+    max_cube_speed_mps: float
+    sink_m: float
+    t_end_s: float
+    failure: Failure | None
+
+
+def heavy_on_light(fidelity: Fidelity, settle_s: float = 1.0,
+                   guard: SceneGuard | None = None) -> HeavyOnLight:
+    """A 120 x 120 x 900 mm, 100 kg block resting on four 10 mm, 1 g cubes on the ground,
+    no gripper, for ``settle_s`` (the scene of ``tests/sim/test_guards.py`` without the
+    gripper's cycle), watched as a step is (:class:`asmplan.sim.guard.SceneWatch` with
+    ``guard``, every record row): the scene ends at the guard's first failure. Analytic:
+    nothing moves. Cube speeds are sampled every physics step."""
     cube = (0.01, 0.01, 0.01)
     block = (0.12, 0.12, 0.9)
     with BulletWorld(fidelity) as world:
@@ -486,9 +522,17 @@ def heavy_on_light(fidelity: Fidelity, settle_s: float = 1.0) -> tuple[float, fl
         T[:3, 3] = (0.0, 0.0, 0.01 + 0.45)
         top = world.add_body((box_piece(block),), 100.0, T,
                              inertia_kgm2=box_inertia(100.0, block), name="block")
+        watch = SceneWatch(world, world.dynamic_bodies(), guard or SceneGuard())
+        k = fidelity.record_every_steps
         vmax = 0.0
-        for _ in range(round(settle_s / fidelity.dt_s)):
+        failure = None
+        n = round(settle_s / fidelity.dt_s)
+        i = 0
+        while i < n and failure is None:
             world.step()
+            i += 1
             vmax = max(vmax, max(float(np.linalg.norm(world.velocity(c)[0])) for c in cubes))
+            if i % k == 0 or i == n:
+                failure = watch.check(i * fidelity.dt_s)
         sink = 0.46 - float(world.pose(top)[2, 3])
-    return vmax, sink
+    return HeavyOnLight(vmax, sink, i * fidelity.dt_s, failure)

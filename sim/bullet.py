@@ -976,14 +976,6 @@ class BulletWorld:
         ps, _ = self._joint_scales(body, joints)
         return np.array([s[0] for s in st], dtype=float) / np.array(ps)
 
-    def joint_positions_velocities(self, body: int, joints: Sequence[int]
-                                   ) -> tuple[np.ndarray, np.ndarray]:
-        """Joint positions and velocities in one query, each (len(joints),)."""
-        st = pybullet.getJointStates(body, list(joints), physicsClientId=self.client_id)
-        ps = np.array(self._joint_scales(body, joints)[0])
-        return (np.array([s[0] for s in st], dtype=float) / ps,
-                np.array([s[1] for s in st], dtype=float) / ps)
-
     def apply_force(
         self, body: int, link: int, force_N: Sequence[float] | np.ndarray,
         position_m: Sequence[float] | np.ndarray,
@@ -1059,6 +1051,22 @@ class BulletWorld:
             maxForce=self._S2 * float(max_force_N),
             physicsClientId=self.client_id,
         )
+
+    def couple_joints(self, body: int, joint_a: int, joint_b: int, max_force_N: float) -> int:
+        """Hold two prismatic joints of ``body`` at equal travel (``q_a = q_b``), as a rack and
+        pinion does: a gear constraint (``JOINT_GEAR``, ratio -1) solved with the contacts,
+        its internal force bounded by ``max_force_N`` (N), its drift corrected by the solver's
+        ERP. Returns the constraint id."""
+        cid = self.client_id
+        cons = pybullet.createConstraint(body, joint_a, body, joint_b, pybullet.JOINT_GEAR,
+                                         [0.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0],
+                                         physicsClientId=cid)
+        if cons < 0:
+            raise BulletError(f"createConstraint(JOINT_GEAR) failed for body "
+                              f"{self.body_name(body)!r} joints {joint_a}, {joint_b}")
+        pybullet.changeConstraint(cons, gearRatio=-1.0, erp=1.0,
+                                  maxForce=self._S * float(max_force_N), physicsClientId=cid)
+        return cons
 
     # ---------------------------------------------------------------- stepping and state
     def step(self, n: int = 1) -> None:

@@ -14,7 +14,7 @@ Definitions
   (cancels the constraint's lag). In "approach"/"retreat" the fingers
   are position-controlled open; in every other phase they are force-controlled.
 * Finger frame: the measured TCP frame shifted along its y axis to the midpoint of the two
-  pads' faces (the pads may float together along y under force control). Slip is the change
+  pads' faces (synchronised jaws keep it on the TCP; floating ones move together along y). Slip is the change
   of the part's pose in this frame since the end of the "clamp" phase (first tick at or after
   it): translation norm (m) and rotation angle (rad).
 * Measured clamp force of a finger: sum of the contact normal forces between its pad and the
@@ -43,10 +43,11 @@ from ..planner.trajectory import OPEN_PHASES, Trajectory, quat_xyzw_from_matrix,
 from .bullet import BulletWorld
 from .contacts import Contacts
 from .gripper import FINGER_LINKS, Gripper
+from .guard import SceneWatch
 from .judge import _SPEED_MARGIN_MPS, _failures, judge
 from .records import StepOutcome, StepRecord, SuccessCriteria
 from .rest import RestKeeper
-from .verdicts import ContactEvidence, Failure, FailureCode, SceneGuard, two_point_contacts
+from .verdicts import ContactEvidence, Failure, SceneGuard, two_point_contacts
 
 PEAK_SAMPLE_DT_S = 0.004
 """The peak criteria (insertion force, penetration) are sampled every
@@ -162,9 +163,10 @@ def execute_step(
         Engagement length of the insertion: a step short of its depth is classified as
         ``rim_stop`` or ``jammed`` (:mod:`asmplan.sim.verdicts`).
     guard : SceneGuard, optional
-        Speed and cell bounds (default :class:`~asmplan.sim.verdicts.SceneGuard`): a dynamic
-        body (other than the gripper) beyond them ends the step at that record row as
-        ``fell`` or ``unstable``; the record keeps the rows before it.
+        Speed, cell and sinking bounds (default :class:`~asmplan.sim.verdicts.SceneGuard`,
+        checked by :class:`~asmplan.sim.guard.SceneWatch`): a dynamic body (other than the
+        gripper) beyond them ends the step at that record row as ``fell`` or ``unstable``;
+        the record keeps the rows before it.
 
     Returns
     -------
@@ -222,10 +224,8 @@ def execute_step(
     T_grip_part_ref: np.ndarray | None = None
     nan_detected = False
     mode_open: bool | None = None
-    watched = [b for b in world.dynamic_bodies() if b != gripper.body]
-    centre = np.asarray(guard.cell_centre_m, dtype=float)
-    g_norm = float(np.linalg.norm(world.gravity_mps2))
-    z_top = {b: float(world.com_position_m(b)[2]) for b in watched}
+    watch = SceneWatch(world, [b for b in world.dynamic_bodies() if b != gripper.body], guard,
+                       not_sinking=(part_body,))
     stop: Failure | None = None
     lower_contacts: dict[int, Contacts] = {}  # record row -> the part's non-finger contacts
     rest = RestKeeper(world, gripper.body, part_body) if fid.rest_window_s > 0 else None
@@ -257,38 +257,10 @@ def execute_step(
             else:
                 pen_between = max(pen_between, world.max_penetration_m(part_body))
             continue
-        t_now = float(t_cmd[i])
-        v_palm = world.velocity(gripper.body)[0]
-        for b in watched:
-            vb = world.velocity(b)[0]
-            if b == part_body and mode_open is False:  # carried: its speed in the grip
-                vb = vb - v_palm
-            pb = world.com_position_m(b)
-            speed = float(np.linalg.norm(vb))
-            away = float(np.max(np.abs(pb - centre)))
-            if math.isfinite(pb[2]):
-                z_top[b] = max(z_top[b], float(pb[2]))
-            if not (speed <= guard.max_speed_mps and away <= guard.cell_half_size_m):
-                # gravity explains m g (highest - now) of kinetic energy (plus what the speed
-                # bound allows); more than that came from the solver
-                m_b = world.body_mass_kg(b)
-                ke = world.kinetic_energy_J(b)
-                budget = m_b * (g_norm * max(0.0, z_top[b] - float(pb[2]))
-                                + 0.5 * guard.max_speed_mps ** 2)
-                explained = math.isfinite(ke) and ke <= budget
-                code: FailureCode = ("fell" if explained or away > guard.cell_half_size_m
-                                     else "unstable")
-                limit = guard.max_speed_mps
-                stop = Failure(code, speed if math.isfinite(speed) else math.inf, limit,
-                               "m/s", body=world.body_name(b),
-                               position_m=(float(pb[0]), float(pb[1]), float(pb[2]))
-                               if np.all(np.isfinite(pb)) else None,
-                               detail=(f"{away * 1e3:.0f} mm from the cell centre (cell "
-                                       f"half size {guard.cell_half_size_m * 1e3:.0f} mm)"
-                                       if away > guard.cell_half_size_m else
-                                       f"kinetic energy {ke:.3g} J, its fall explains "
-                                       f"{budget:.3g} J, at t = {t_now:.3f} s"))
-                break
+        # carried: the part's speed in the grip
+        carried = ({part_body: world.velocity(gripper.body)[0]} if mode_open is False
+                   else None)
+        stop = watch.check(float(t_cmd[i]), carried)
         if stop is not None:
             break
         T_part = world.pose(part_body)

@@ -13,9 +13,18 @@ Model
   physical and friction carries the part. Its weight is compensated (as a robot controller
   does) and commands lead the trajectory by :attr:`Gripper.pose_lead_s` to cancel the
   constraint's lag.
+* Synchronised jaws (:attr:`GripperSpec.synchronised`, the default): the two finger joints
+  are held at equal travel by a gear constraint (:meth:`BulletWorld.couple_joints`), as the
+  rack and pinion of a real parallel gripper holds them. The pair cannot travel along the
+  closing axis relative to the palm: a load along that axis (the part's weight with the axis
+  tilted, the palm's acceleration, a chamfer pushing sideways) is carried by the mechanism,
+  and an offset along it shows as the part pushed, tilted or slipping in the pads, never as
+  the jaws moving off the TCP.
 * Force mode: the default velocity motors are off and each finger gets the commanded
-  per-finger squeeze force as a joint force (TORQUE_CONTROL). In statics the contact normal
-  force on the part equals it.
+  per-finger squeeze force as a joint force (TORQUE_CONTROL). The coupling's internal force
+  acts on the two joints with opposite signs, so the squeeze (the mean of the two pads'
+  normal forces) equals the command in statics; the pads differ by the load along the
+  closing axis (the lower pad carries the part's weight when that axis is vertical).
 * Open mode: fingers are position-controlled to an opening with a bounded motor force
   (approach, retreat, or the initial opening before the clamp).
 
@@ -73,10 +82,9 @@ class GripperSpec:
     max_clamp_force_N : float
         Largest per-finger force that may be commanded, N.
     finger_damping_Nspm : float
-        Viscous damping of each finger joint, N s/m. Force-controlled fingers and the part
-        they squeeze float together along the closing axis; without damping they keep any
-        momentum picked up at the impact and drift (mm per second). Damping acts only on
-        finger motion relative to the palm, so it does not change the static clamp force.
+        Viscous damping of each finger joint, N s/m. It acts only on finger motion relative
+        to the palm, so it does not change the static clamp force; with floating jaws
+        (``synchronised=False``) it keeps the pair from keeping the momentum of the impact.
     gravity_compensation : bool
         Cancel the gripper's own weight with external forces every step (as a robot's
         controller does), so the pose constraint does not sag and the weight does not leak
@@ -85,6 +93,16 @@ class GripperSpec:
         Closing speed of each finger before both pads touch, m/s; None closes under pure
         force control from the start (at 1/240 s the pads then hit the part fast enough to
         penetrate it by millimetres).
+    synchronised : bool
+        Couple the two jaws like the rack and pinion of a real parallel gripper (equal travel,
+        :meth:`BulletWorld.couple_joints`). False leaves them floating together along the
+        closing axis under force control, the fingers' own weight fed forward: a part then
+        slides downhill at ``m g sin t / (2 finger_damping)`` with the closing axis tilted by
+        t (the model before; kept for the scenes measured with it, no pipeline gripper uses
+        it).
+    synchronisation_max_force_N : float
+        Bound of the coupling's internal force, N (what the mechanism can carry along the
+        closing axis before it gives).
     """
 
     pad_size_m: tuple[float, float, float] = (0.02, 0.006, 0.02)
@@ -101,6 +119,8 @@ class GripperSpec:
     finger_damping_Nspm: float = 2.0
     closing_speed_mps: float | None = 0.05
     gravity_compensation: bool = True
+    synchronised: bool = True
+    synchronisation_max_force_N: float = 2000.0
 
     def __post_init__(self) -> None:
         for label in ("pad_size_m", "palm_size_m"):
@@ -114,6 +134,7 @@ class GripperSpec:
             "pose_max_force_N",
             "open_max_force_N",
             "max_clamp_force_N",
+            "synchronisation_max_force_N",
         ):
             v = getattr(self, label)
             if not (math.isfinite(v) and v > 0):
@@ -161,9 +182,6 @@ class Gripper:
     opening_m : float, optional
         Initial distance between the pad faces (default: fully open). Fingers start in open
         mode, position-controlled to this opening.
-    carried_mass_kg : float
-        Mass of the part to be held, kg: its weight and inertia along the closing axis (with
-        the fingers') are carried by the finger forces (:meth:`_finger_forces`).
     """
 
     def __init__(
@@ -172,13 +190,9 @@ class Gripper:
         spec: GripperSpec,
         T_world_tcp: np.ndarray,
         opening_m: float | None = None,
-        carried_mass_kg: float = 0.0,
     ) -> None:
         self.world = world
         self.spec = spec
-        if not (math.isfinite(carried_mass_kg) and carried_mass_kg >= 0.0):
-            raise ValueError(f"carried_mass_kg: expected >= 0, found {carried_mass_kg}")
-        self.carried_mass_kg = float(carried_mass_kg)
         self._palm_v: np.ndarray | None = None
         self._palm_step = 0
         pad = np.asarray(spec.pad_size_m, dtype=float)
@@ -233,6 +247,10 @@ class Gripper:
         self._torque = False
         q0 = self.travel_for_opening(spec.max_opening_m if opening_m is None else opening_m)
         world.reset_joints(self.body, FINGER_LINKS, [q0, q0])
+        self._coupling: int | None = None
+        if spec.synchronised:
+            self._coupling = world.couple_joints(self.body, *FINGER_LINKS,
+                                                 spec.synchronisation_max_force_N)
         self.command_open(spec.max_opening_m if opening_m is None else opening_m)
 
     # ---------------------------------------------------------------- geometry
@@ -310,8 +328,9 @@ class Gripper:
                 self.world.disable_motors(self.body, FINGER_LINKS)
                 self._torque = True
             # one call per step: PyBullet adds repeated TORQUE_CONTROL forces within a step
-            self.world.set_joint_forces(self.body, FINGER_LINKS,
-                                        self._finger_forces(force_N * self._touch_ramp()))
+            f = force_N * self._touch_ramp()
+            w = 0.0 if self.spec.synchronised else 0.5 * self._finger_load_along_closing_N()
+            self.world.set_joint_forces(self.body, FINGER_LINKS, (f + w, f - w))
         else:
             self.world.set_joint_velocity_targets(
                 self.body, FINGER_LINKS, self._approach_speeds_mps(v), (force_N, force_N)
@@ -351,7 +370,11 @@ class Gripper:
         a 10 mm pin (bench pin insertion: 68-70 um of "fit" penetration, all of it at the
         pads; 15-35 um in metre units, whose breaking distance is ten times larger). The
         arrival is as fast as before (the last step covers the remaining gap plus the
-        preset's contact slop)."""
+        preset's contact slop).
+
+        Synchronised jaws move as one: both get the smallest of these speeds among the pads
+        that do not touch yet (a pad already on the part pushes it, as a real synchronised
+        gripper shoves an off-centre part toward its centre line)."""
         w = self.world
         dt = w.fidelity.dt_s
         R = self.tcp_pose()[:3, :3]
@@ -359,36 +382,32 @@ class Gripper:
         # ... plus the contact slop: some pairs (box on box) report a contact only once they
         # overlap, so the pad must end its last step that little inside
         slop = w.fidelity.contact_slop_m
-        out = []
+        out, gaps = [], []
         for link, sign in zip(FINGER_LINKS, (1.0, -1.0), strict=True):
             gap = w.gap_m(self.body, link, look, direction=R @ np.array([0.0, -sign, 0.0]))
+            gaps.append(gap)
             out.append(v if not math.isfinite(gap) else min(v, (max(gap, 0.0) + slop) / dt))
+        if self.spec.synchronised:
+            free = [s for s, gap in zip(out, gaps, strict=True) if not gap <= slop]
+            common = min(free) if free else min(out)
+            return common, common
         return out[0], out[1]
 
-    def load_along_closing_N(self) -> float:
-        """Weight and inertia of the held load (part + both fingers) along the TCP's +y axis
-        (finger 1's side), N: ``m (g - a_palm) . y`` at the palm's current orientation, with
-        the palm's acceleration over the last step (as a robot's controller knows its own)."""
+    def _finger_load_along_closing_N(self) -> float:
+        """Floating jaws only: the fingers' own weight and inertia along the TCP's +y axis,
+        ``2 m_f (g - a_palm) . y`` (palm acceleration over the last step), N, split +W/2 on
+        finger 1 and -W/2 on finger 2 so the empty pair does not slide downhill (the model
+        before synchronised jaws, kept as it was: the scenes of the stored interference
+        resolutions, ``bench/scenarios.py`` ``PinHole``, were measured with it)."""
         w = self.world
-        y_world = self.tcp_pose()[:3, 1]
         v = w.velocity(self.body)[0]
         step = w.step_count
         a = np.zeros(3)
         if self._palm_v is not None and step > self._palm_step:
             a = (v - self._palm_v) / ((step - self._palm_step) * w.fidelity.dt_s)
         self._palm_v, self._palm_step = v, step
-        m = self.carried_mass_kg + 2.0 * self.spec.finger_mass_kg
-        return float(m * ((w.gravity_mps2 - a) @ y_world))
-
-    def _finger_forces(self, force_N: float) -> tuple[float, float]:
-        """Joint forces of the two fingers in force mode: ``force_N`` each, plus the held
-        load's weight along the closing axis split between them (``+W/2`` on finger 1, which
-        pushes along -y, ``-W/2`` on finger 2), as a gripper's mechanism carries it: the
-        squeeze (their mean) stays ``force_N`` and the pair does not slide downhill when the
-        closing axis is tilted (free fingers slid at (m + 2 m_f) g sin t / (2 d), 13-16 mm/s
-        at 0.1 rad)."""
-        w = 0.5 * self.load_along_closing_N()
-        return (force_N + w, force_N - w)
+        y_world = self.tcp_pose()[:3, 1]
+        return float(2.0 * self.spec.finger_mass_kg * ((w.gravity_mps2 - a) @ y_world))
 
     def command_open(self, opening_m: float | None = None) -> None:
         """Open mode: position-control both fingers to ``opening_m`` (default fully open)."""
@@ -415,32 +434,15 @@ class Gripper:
 
 
 class CoupledGripper(Gripper):
-    """A :class:`~asmplan.sim.gripper.Gripper` whose fingers are coupled like a synchronised
-    parallel gripper, and which opens to the grasp's opening rather than its full stroke.
-
-    Coupling: in force mode each finger gets the commanded squeeze force plus a correction
-    ``-/+ c`` with ``c = (k (q1 - q2) + d (v1 - v2)) / 2``, so the pair is centred on the TCP
-    by a stiffness ``2 k`` and damping ``2 d`` along the closing axis while the squeeze (their
-    mean) is unchanged; at rest ``q1 = q2`` and each finger presses exactly the commanded
-    force. ``k = m w^2`` and ``d = 2 zeta m w`` for the carried mass ``m`` (part + fingers),
-    ``w = min(coupling_omega_radps, 0.25 / dt)`` and ``zeta = 0.7``. The load along the
-    closing axis (weight and the palm's acceleration, :meth:`Gripper.load_along_closing_N`)
-    is fed forward, so the coupling only corrects what that misses: over the seed cycle the
-    part moved <= 0.015 mm along the closing axis with it horizontal, tilted 0.1 rad or
-    vertical (without the feed-forward an acceleration ``a`` offset it by ``a / (2 w^2)``).
-    The correction is explicit (computed from the state before the step); stiffer settings
-    (w >= 150 rad/s) fed energy into stiff pin-in-hole contacts and jammed a 25 g peg that
-    inserts at 60-100 rad/s.
+    """The pipeline's gripper: a synchronised :class:`Gripper` (its jaws coupled like a rack
+    and pinion, :attr:`GripperSpec.synchronised`) that opens to the grasp's opening rather
+    than its full stroke.
 
     Parameters
     ----------
     world, spec, T_world_tcp, opening_m
         As for :class:`~asmplan.sim.gripper.Gripper`; ``opening_m`` is also the opening of
         every open phase (approach, retreat), as planned.
-    carried_mass_kg : float
-        Mass of the part to be carried, kg.
-    coupling_omega_radps : float
-        Natural frequency of the coupling, rad/s.
     """
 
     def __init__(
@@ -449,24 +451,13 @@ class CoupledGripper(Gripper):
         spec: GripperSpec,
         T_world_tcp: np.ndarray,
         opening_m: float | None = None,
-        carried_mass_kg: float = 0.0,
-        coupling_omega_radps: float = 80.0,
     ) -> None:
+        if not spec.synchronised:
+            raise ValueError("CoupledGripper: expected a synchronised GripperSpec, found "
+                             "synchronised=False")
         self._open_default = opening_m
-        super().__init__(world, spec, T_world_tcp, opening_m, carried_mass_kg)
-        m = float(carried_mass_kg) + 2.0 * spec.finger_mass_kg
-        w = min(float(coupling_omega_radps), 0.25 / world.fidelity.dt_s)
-        self.coupling_stiffness_Npm = m * w * w
-        self.coupling_damping_Nspm = 2.0 * 0.7 * m * w
+        super().__init__(world, spec, T_world_tcp, opening_m)
 
     def command_open(self, opening_m: float | None = None) -> None:
         """Open mode at ``opening_m`` (default: the opening given at construction)."""
         super().command_open(self._open_default if opening_m is None else opening_m)
-
-    def _finger_forces(self, force_N: float) -> tuple[float, float]:
-        """Force mode as in the base class, with the finger coupling added once touching."""
-        q, qd = self.world.joint_positions_velocities(self.body, FINGER_LINKS)
-        c = 0.5 * (self.coupling_stiffness_Npm * (q[0] - q[1])
-                   + self.coupling_damping_Nspm * (qd[0] - qd[1]))
-        f1, f2 = super()._finger_forces(force_N)
-        return (f1 - c, f2 + c)

@@ -138,7 +138,10 @@ def judge(
         lost[last_hold] |= bool(held[last_hold] and no_force[last_hold])
     dropped = bool(lost.any()) or max_slip > criteria.drop_slip_m
     mae = (
-        float(np.mean(np.abs(record.measured_force_N[held] - record.commanded_force_N[held, None])))
+        # the squeeze (mean of the two fingers) against the command: synchronised jaws make
+        # the pads differ by the load along the closing axis, which the mechanism carries
+        float(np.mean(np.abs(record.measured_force_N[held].mean(axis=1)
+                             - record.commanded_force_N[held])))
         if held.any()
         else math.nan
     )

@@ -203,7 +203,9 @@ class StepOutcome:
     peak_clamp_force_N : float
         Largest measured finger normal force, N.
     clamp_force_mae_N : float
-        Mean absolute error of measured vs commanded force over the held phases, both fingers.
+        Mean absolute error of the measured squeeze (mean of the two fingers' forces) vs the
+        commanded per-finger force over the held phases, N (the pads themselves differ by the
+        load along the closing axis that the synchronised jaws carry).
     peak_insertion_force_N : float
         Largest non-finger contact force on the part during "lower", N.
     max_penetration_m : float

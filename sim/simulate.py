@@ -25,9 +25,9 @@ every step into every step's collision detection. Because the steps are independ
 ``simulate_plan(workers=N)`` runs them in N forked processes with identical results.
 
 Gripper fingers: :class:`~asmplan.sim.gripper.CoupledGripper` (in :mod:`asmplan.sim.gripper`)
-couples the two force-controlled fingers like the rack and pinion of a real parallel gripper:
-without it both fingers and the part float freely along the closing axis, and a 0.3 kg part
-carried 200 mm along that axis drifted 10 mm off the TCP
+holds the two force-controlled fingers at equal travel like the rack and pinion of a real
+parallel gripper (a gear constraint): with free fingers the pair and the part float along the
+closing axis, and a 0.3 kg part carried 200 mm along that axis drifted 10 mm off the TCP
 (to the finger's joint limit) and missed its holes.
 """
 
@@ -50,7 +50,7 @@ from ..planner.plan import AssemblyState, Plan, Step, assembly_state, state_befo
 from .bullet import BulletWorld
 from .execute import execute_step, scene_warnings
 from .fidelity import BALANCED, PRESETS, Fidelity
-from .gripper import CoupledGripper
+from .gripper import CoupledGripper, GripperSpec
 from .judge import failed_outcome
 from .pose_error import PoseError, apply_pose_error
 from .press import press_clearance_m, press_recorder, press_relaxed
@@ -73,6 +73,7 @@ from .verdicts import SceneGuard
 
 if TYPE_CHECKING:
     from ..parts.models import ProductGeometry
+    from ..planner.trajectory import Trajectory
 
 
 
@@ -158,6 +159,15 @@ def insertion_speed_warnings(product: Product, part: str, fidelity: Fidelity) ->
 ProgressFn = Callable[[int, int, str, str], None]
 
 
+def step_gripper(world: BulletWorld, spec: GripperSpec, trajectory: Trajectory,
+                 opening_m: float) -> CoupledGripper:
+    """The gripper every simulated step runs with: ``spec`` (for a product, its gripper
+    resource through :func:`~asmplan.sim.scene.gripper_spec`) with synchronised jaws, at the
+    trajectory's first pose, opening to ``opening_m`` (m) in the open phases. The bench's
+    held-drift scene builds its gripper here too, so it measures this model."""
+    return CoupledGripper(world, spec, trajectory.T_world_gripper[0], opening_m=float(opening_m))
+
+
 def simulate_step(plan: Plan, index: int, product: Product, geometry: ProductGeometry,
                   fidelity: Fidelity = BALANCED, *, cull: bool = True,
                   settings: SceneSettings | None = None,
@@ -202,10 +212,8 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
     t1 = time.perf_counter()
     with BulletWorld(handover_fidelity(fidelity, step)) as world:
         ids = build_scene(world, scene)
-        held = scene.body(step.part)
-        gripper = CoupledGripper(world, gripper_spec(g_res, f_max), traj.T_world_gripper[0],
-                                 opening_m=float(step.grasp.open_width_m),
-                                 carried_mass_kg=held.mass_kg)
+        gripper = step_gripper(world, gripper_spec(g_res, f_max), traj,
+                               float(step.grasp.open_width_m))
         t2 = time.perf_counter()
         press = press_recorder(world, ids[step.part], step, gripper.body,
                                product.process.insertion_speed_m_s,

@@ -14,7 +14,8 @@ A :class:`Failure` names a cause a cell engineer recognises, with the number tha
 * ``fell``      a body left the scene or fell freely: ``value`` its speed, ``limit`` the speed
   bound, with the body and its position;
 * ``unstable``  a body gained speed no force in the scene explains: ``value`` its speed,
-  ``limit`` the bound, with the body and its position.
+  ``limit`` the bound, with the body and its position; or it sinks into another body (the
+  solver cannot hold it up): ``value`` its penetration (unit "m"), ``limit`` the bound.
 
 The step ends at the first ``fell``/``unstable`` (:class:`SceneGuard`), so no result holds a
 position from after it.
@@ -90,7 +91,9 @@ class Failure:
             "jammed": f"jammed at {v:.3f} {u} of {lim:.3f} {u}",
             "slipped": f"slipped in the grip: {v:.3f} {u} > {lim:.3f} {u} before the insertion",
             "fell": f"fell: {self.body} at {v:.2f} {u} (bound {lim:.2f} {u}){where}",
-            "unstable": f"unstable: {self.body} at {v:.2f} {u} (bound {lim:.2f} {u}){where}",
+            "unstable": (f"unstable: {self.body} at {v:.2f} {u} (bound {lim:.2f} {u}){where}"
+                         if self.unit != "m" else
+                         f"unstable: {self.body} sank {v:.3f} {u} (bound {lim:.3f} {u}){where}"),
         }[self.code]
         return text + (f"; {self.detail}" if self.detail else "")
 
@@ -121,8 +124,10 @@ def _nan(v: Any) -> float:
 
 @dataclass(frozen=True)
 class SceneGuard:
-    """When a step stops early: a watched body faster than ``max_speed_mps`` or farther than
-    ``cell_half_size_m`` from the cell's centre (its table) ends the step at that record row.
+    """When a step stops early: a watched body faster than ``max_speed_mps``, farther than
+    ``cell_half_size_m`` from the cell's centre (its table), or sinking into another body
+    (a penetration deeper than ``max_sink_m`` at two record rows in a row, still growing)
+    ends the step at that record row (:class:`asmplan.sim.guard.SceneWatch`).
 
     A body with more kinetic energy than its fall explains (``m g`` times its drop from the
     highest point it reached, plus ``m max_speed^2 / 2``) is "unstable": the solver gave it
@@ -133,9 +138,10 @@ class SceneGuard:
     max_speed_mps: float = 1.0
     cell_half_size_m: float = 1.0
     cell_centre_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    max_sink_m: float = 0.5e-3
 
     def __post_init__(self) -> None:
-        for label in ("max_speed_mps", "cell_half_size_m"):
+        for label in ("max_speed_mps", "cell_half_size_m", "max_sink_m"):
             v = getattr(self, label)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"SceneGuard.{label}: expected > 0, found {v}")

@@ -102,14 +102,21 @@ def test_pin_inside_the_capture_boundary_goes_in():
     assert entered_depth_m(record) > 19e-3
 
 
-@pytest.mark.parametrize("name", ["fast", "balanced"])
+@pytest.mark.parametrize("name", ["fast", "balanced", "accurate"])
 @pytest.mark.parametrize("tilt", [0.0, 0.1, math.pi / 2])
 def test_held_part_does_not_drift_along_the_closing_axis(name, tilt):
-    """The simulator's gripper (coupled fingers, the held load's weight and inertia along the
-    closing axis carried by the mechanism) over the seed cycle: < 0.1 mm with the closing
-    axis horizontal, tilted 0.1 rad and vertical. Measured: <= 0.015 mm (free fingers slid at
-    13-16 mm/s at 0.1 rad)."""
-    assert held_drift_m(preset(name), tilt, coupled=True) < 0.1e-3
+    """The pipeline's gripper (simulate.step_gripper: force-controlled fingers whose jaws are
+    synchronised like a rack and pinion) over the seed cycle: < 0.1 mm with the closing
+    axis horizontal, tilted 0.1 rad and vertical (issue 16 item 2). Measured: <= 0.0017 mm at
+    FAST, < 0.1 um at BALANCED and ACCURATE."""
+    assert held_drift_m(preset(name), tilt) < 0.1e-3
+
+
+def test_floating_jaws_slide_down_a_tilted_closing_axis():
+    """The measure sees drift: with the jaws floating (no synchronisation, the fingers' own
+    weight fed forward) the same scene slides downhill, m g sin t / (2 d) = 20 mm/s at
+    0.1 rad, until a finger reaches its joint limit. Measured: 13.6 mm at BALANCED."""
+    assert held_drift_m(BALANCED, 0.1, synchronised=False) > 5e-3
 
 
 @pytest.mark.parametrize("fidelity", [BALANCED, FAST], ids=["balanced", "fast"])

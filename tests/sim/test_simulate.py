@@ -85,9 +85,13 @@ def test_gear_unit_cover_stays_on_its_supports_after_release():
     # shoulder nothing carried its front: released, it tipped nose-down about the block's
     # edge until its holes jammed on the post heads, lying on the wheel (0.81 mm and 2.36 deg
     # off its pose at FAST, 0.82 mm at BALANCED). The posts' shoulders now carry it.
+    # BALANCED: FAST does not resolve the cover's H11/c11 fit (80-260 um against its 2 mm);
+    # with synchronised jaws its coarse, rounded post heads push the cover along the closing
+    # axis, which the grip does not give, and it jams 2.7 mm in (it passed at FAST while the
+    # jaws floated).
     plan, product, geo = plan_for("gear_unit")
     step = plan.step("cover")
-    result = simulate_step(plan, step.index, product, geo, FAST)
+    result = simulate_step(plan, step.index, product, geo, BALANCED)
     assert result.success, result.reasons
     rec = result.record
     after = rec.phase_mask("release", "retreat")
@@ -95,7 +99,7 @@ def test_gear_unit_cover_stays_on_its_supports_after_release():
     tilt_rad = rotation_angle_rad(np.swapaxes(rec.T_world_part[after, :3, :3], -1, -2)
                                   @ T_target[:3, :3])
     drop_m = T_target[2, 3] - rec.T_world_part[after, 2, 3]
-    # measured: tilt < 0.001 deg, drop 12 um (the FAST contact resolution)
+    # measured: tilt < 0.001 deg, drop 12 um at FAST (its contact resolution)
     assert np.max(tilt_rad) < math.radians(0.1)
     assert np.max(np.abs(drop_m)) < 50e-6
 
@@ -119,8 +123,7 @@ def test_gear_unit_collar_slides_onto_the_shaft_without_dragging_it():
         gripper = CoupledGripper(
             world, gripper_spec(product.resources.gripper,
                                 float(np.max(step.trajectory.clamp_force_N))),
-            step.trajectory.T_world_gripper[0], opening_m=float(step.grasp.open_width_m),
-            carried_mass_kg=scene.body("collar").mass_kg)
+            step.trajectory.T_world_gripper[0], opening_m=float(step.grasp.open_width_m))
         shaft_before = world.pose(ids["shaft"])[:3, 3]
         _, outcome = execute_step(world, gripper, ids["collar"], step.trajectory,
                                   criteria_for(product), T_world_part_target=step.T_world_final,
