@@ -155,8 +155,8 @@ class StepRecord:
         """JSON-safe dict (nested lists of floats; NaN becomes None)."""
 
         def clean(a: np.ndarray) -> Any:
-            if a.dtype.kind in "iu":
-                return a.tolist()
+            if a.dtype.kind in "iu" or bool(np.isfinite(a).all()):
+                return a.tolist()  # already JSON-safe: no object copy (records are large)
             obj = a.astype(object)
             obj[~np.isfinite(a)] = None
             return obj.tolist()

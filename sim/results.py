@@ -172,16 +172,20 @@ class StepResult:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict without wall-clock times."""
-        return _clean({
+        out = _clean({
             "index": self.index, "part": self.part, "kind": self.kind,
             "simulated": self.simulated, "success": self.success,
             "failed_criteria": list(self.failed_criteria),
             "outcome": None if self.outcome is None else _outcome_to_dict(self.outcome),
             "criteria": self.criteria,
-            "record": None if self.record is None else self.record.to_dict(),
+            "record": None,
             "scene": self.scene, "warnings": list(self.warnings), "press": self.press,
             **({} if self.pose_error is None else {"pose_error": self.pose_error}),
         })
+        # the record is JSON-safe as it comes (StepRecord.to_dict): not walked element by
+        # element again (its ~10^5 numbers were most of results.json's cost)
+        out["record"] = None if self.record is None else self.record.to_dict()
+        return out
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> StepResult:
@@ -236,7 +240,7 @@ class PlanResults:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict (no wall-clock times; see :meth:`timing`)."""
-        return _clean({
+        out = _clean({
             "format": RESULTS_FORMAT, "version": RESULTS_VERSION,
             "product": self.product, "source": self.source,
             "sequence": list(self.plan_sequence),
@@ -245,8 +249,10 @@ class PlanResults:
             "success": self.success,
             "failed_steps": [s.index for s in self.failed_steps],
             "warnings": list(self.warnings),
-            "steps": [s.to_dict() for s in self.steps],
+            "steps": None,
         })
+        out["steps"] = [s.to_dict() for s in self.steps]  # JSON-safe already
+        return out
 
     def to_json(self) -> str:
         """Deterministic JSON text (sorted keys): bit-identical for the same plan and preset."""
