@@ -77,7 +77,14 @@ class RunResult:
     timings_s: dict[str, float] = field(default_factory=dict)
     cpu_s: dict[str, float] = field(default_factory=dict)
     """CPU time (user + system) per stage, s: this process's and that of its finished child
-    processes (the simulation workers, counted when they end, i.e. in "simulate")."""
+    processes (the simulation workers, counted when they end, i.e. in "simulate"). What
+    ``while_simulating`` spent (the report's plan-only pictures) is counted in "report", not
+    in "simulate"; ``timings_s["report"]`` is the report's wall time after the simulation."""
+    while_simulating_cpu_s: float = 0.0
+    """CPU seconds this process spent in ``run_product``'s ``while_simulating``."""
+    report_views: Any = None
+    """The report's plan-only pictures rendered while simulating
+    (:class:`asmplan.report.planviews.PlanViews`, see :func:`render_while_simulating`)."""
 
     @property
     def failure(self) -> str:
@@ -121,8 +128,16 @@ def finite_json(value: Any) -> Any:
 
 
 def run_product(product: Product | str | Path, settings: RunSettings | None = None, *,
-                progress: Progress | None = None) -> RunResult:
-    """Sequence, plan and simulate ``product`` (a validated Product or a YAML path)."""
+                progress: Progress | None = None,
+                while_simulating: Callable[[RunResult], None] | None = None) -> RunResult:
+    """Sequence, plan and simulate ``product`` (a validated Product or a YAML path).
+
+    ``while_simulating(result)`` is called once the plan exists (``result.plan``), after every
+    step has been handed to the simulation workers and before their results are awaited: work
+    that needs only the plan (:func:`render_while_simulating`: the report's plan-only
+    pictures) then runs while the workers simulate. With one worker the steps simulate in
+    this process after it returns. Its CPU time is kept out of ``cpu_s["simulate"]``
+    (``while_simulating_cpu_s``)."""
     settings = settings or RunSettings()
     if not isinstance(product, Product):
         product = load_product(product)
@@ -179,6 +194,12 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
         result.cpu_s["plan"] = c2 - c1
         if result.plan is not None and settings.simulate:
             if pipe is not None:
+                pipe.start_all()
+            if while_simulating is not None:
+                c_ws = time.process_time()
+                while_simulating(result)
+                result.while_simulating_cpu_s = time.process_time() - c_ws
+            if pipe is not None:
                 result.results = pipe.results(result.plan, progress=sim_progress)
             else:
                 result.results = simulate_plan(result.plan, product, geometry, fidelity,
@@ -199,9 +220,29 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
             pipe.close()
     result.timings_s["simulate"] = time.perf_counter() - t2
     if "plan" in result.cpu_s:
-        result.cpu_s["simulate"] = cpu_now_s() - c2
+        result.cpu_s["simulate"] = cpu_now_s() - c2 - result.while_simulating_cpu_s
     result.warnings = list(dict.fromkeys(result.warnings))  # once each, in order
     return result
+
+
+def render_while_simulating(folder: OutputFolder) -> Callable[[RunResult], None]:
+    """A ``while_simulating`` for :func:`run_product` that renders the report's plan-only
+    pictures into ``folder``'s staging folder (:mod:`asmplan.report.planviews`);
+    :func:`write_outputs` into the same ``folder`` then renders only the rest.
+
+    >>> with OutputFolder("out") as folder:                            # doctest: +SKIP
+    ...     result = run_product(product, settings,
+    ...                          while_simulating=render_while_simulating(folder))
+    ...     write_outputs(result, folder)
+    """
+    def render(result: RunResult) -> None:
+        from .report.planviews import render_plan_views
+
+        assert result.plan is not None  # called once the plan exists
+        result.report_views = render_plan_views(result.product, result.geometry,
+                                                result.sequence, result.plan, folder.stage)
+
+    return render
 
 
 def write_outputs(result: RunResult, outdir: str | Path | OutputFolder, *, report: bool = True,
@@ -240,7 +281,8 @@ def write_outputs(result: RunResult, outdir: str | Path | OutputFolder, *, repor
                 progress("report", 0, 1, "")
             write_report(ReportInputs(result.product, result.geometry, result.sequence, result.plan,
                                       result.results, result.fidelity, result.failure,
-                                      list(result.warnings), result.dropped_orders), stage)
+                                      list(result.warnings), result.dropped_orders), stage,
+                         prepared=result.report_views)
             if progress is not None:
                 progress("report", 1, 1, "")
         target = folder.commit()
@@ -248,5 +290,6 @@ def write_outputs(result: RunResult, outdir: str | Path | OutputFolder, *, repor
         if folder is not outdir:
             folder.close()
     result.timings_s["report"] = time.perf_counter() - t0
-    result.cpu_s["report"] = cpu_now_s() - c0
+    # the plan-only pictures rendered while simulating count here (see RunResult.cpu_s)
+    result.cpu_s["report"] = result.while_simulating_cpu_s + cpu_now_s() - c0
     return target if not isinstance(outdir, str | Path) else Path(outdir)

@@ -18,6 +18,7 @@ from ..knowledge.model import Product
 from ..planner.plan import Plan
 from . import plots
 from .fits import unresolved_fits
+from .planviews import PlanViews, path_view_name
 from .views import Views
 
 if TYPE_CHECKING:
@@ -260,7 +261,8 @@ def _failure_caption(res: Any) -> str:
 # Complexity above C (radon): one report row per step, each field formatted where it is shown (absent
 # values as '-').
 def _step_rows(inp: ReportInputs, views: Views | None, folder: Path,
-               unresolved: list[dict[str, Any]]) -> list[dict[str, Any]]:
+               unresolved: list[dict[str, Any]], paths: dict[int, str] | None = None
+               ) -> list[dict[str, Any]]:
     if inp.plan is None:
         return []
     results = {r.index: r for r in inp.results.steps} if inp.results is not None else {}
@@ -296,8 +298,10 @@ def _step_rows(inp: ReportInputs, views: Views | None, folder: Path,
             row["summary"] = "Held by the fixture from the start; not handled by the robot."
         base = f"step{n:02d}"
         if views is not None and step.kind != "fixture":
-            name = f"{base}-path.png"
-            views.path_view(inp.plan, step, folder / name)
+            name = (paths or {}).get(step.index, "")  # rendered while simulating
+            if not name:
+                name = path_view_name(step.index)
+                views.path_view(inp.plan, step, folder / name)
             row["views"].append({"src": name, "kind": "path", "caption":
                                  f"planned path of {step.part}: pick (translucent) → transport "
                                  "(blue) → insertion (red) → target"})
@@ -387,21 +391,35 @@ def _fidelity_block(fidelity: Any) -> dict[str, Any]:
 
 # Complexity above C (radon): assembles the report: each optional input (views, arm,
 # sequence, failure, results, warnings) adds its section.
-def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True) -> Path:
-    """Render the images and write ``report.html`` into ``folder``; returns its path."""
+def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True,
+                 prepared: PlanViews | None = None) -> Path:
+    """Render the images and write ``report.html`` into ``folder``; returns its path.
+
+    ``prepared``: the plan-only pictures already rendered into ``folder`` while the steps
+    simulated (:func:`asmplan.report.planviews.render_plan_views`); used when they show
+    ``inp.plan`` in this ``folder`` (else everything is rendered here). The report is the
+    same either way."""
     folder.mkdir(parents=True, exist_ok=True)
-    views = Views(inp.product, inp.geometry) if render_images else None
+    if prepared is not None and not (render_images and prepared.usable_for(inp.plan, folder)):
+        prepared = None
+    views = (prepared.views if prepared is not None
+             else Views(inp.product, inp.geometry) if render_images else None)
     images = {"assembled": "", "exploded": ""}
-    if views is not None:
+    if prepared is not None:
+        images = dict(prepared.images)
+    elif views is not None:
         images["assembled"], images["exploded"] = views.render_product(folder)
     unresolved = unresolved_fits(inp.product, inp.fidelity) if inp.results is not None else []
     mate_steps = _mate_steps(inp)
     for u in unresolved:
         k = mate_steps.get(u["mate"])
         u["step"] = "–" if k is None or k < 0 else str(step_number(k))
-    steps = _step_rows(inp, views, folder, unresolved)
+    steps = _step_rows(inp, views, folder, unresolved,
+                       prepared.paths if prepared is not None else None)
     arm = _arm_block(inp)
-    if arm is not None and render_images:
+    if arm is not None and prepared is not None and prepared.reach:
+        arm["reach_image"] = prepared.reach
+    elif arm is not None and render_images:
         from ..planner.arm import reach_facts
 
         robot = inp.product.resources.robot
@@ -411,10 +429,12 @@ def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True)
         arm["reach_image"] = "cell-reach.png"
     story = []
     if views is not None and inp.plan is not None:
-        story = [{"number": step_number(k), "part": part, "src": src}
-                 for k, part, src in views.storyboard(inp.plan, folder)]
+        board = prepared.story if prepared is not None else views.storyboard(inp.plan, folder)
+        story = [{"number": step_number(k), "part": part, "src": src} for k, part, src in board]
     graph = ""
-    if inp.sequence is not None:
+    if prepared is not None and prepared.graph:
+        graph = prepared.graph
+    elif inp.sequence is not None:
         graph = "precedence.png"
         block = _sequence_block(inp)
         plots.precedence_graph_plot(inp.sequence.precedence, folder / graph,

@@ -563,6 +563,11 @@ class PipelinedSimulation:
         self._waiting[(order, step.index)] = (step, state)
         self._submit_waiting(self.planning_workers)
 
+    def start_all(self) -> None:
+        """Planning is over: start every waiting step now (every core simulates; the caller
+        may do other work, e.g. render the plan's pictures, before :meth:`results`)."""
+        self._submit_waiting(None)
+
     def _submit_waiting(self, limit: int | None) -> None:
         """Start waiting steps, in planning order, while fewer than ``limit`` run (None: all)."""
         while self._waiting:

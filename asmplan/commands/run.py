@@ -86,7 +86,7 @@ def terminal_warnings(result: RunResult) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     from ..fileio import OutputFolder
     from ..knowledge.loader import load_product
-    from ..pipeline import RunSettings, run_product, write_outputs
+    from ..pipeline import RunSettings, render_while_simulating, run_product, write_outputs
     from ..planner.plan import PlannerSettings
     from ..sim.pose_error import PoseError
 
@@ -97,7 +97,9 @@ def run(args: argparse.Namespace) -> int:
                            cull=not args.no_cull, workers=args.jobs, pose_error=pose_error)
     progress = StageProgress(sys.stderr)
     with OutputFolder(args.out) as folder:  # checked and locked before any work
-        result = run_product(product, settings, progress=progress)
+        # the report's plan-only pictures are rendered while the steps simulate
+        early = None if args.no_report else render_while_simulating(folder)
+        result = run_product(product, settings, progress=progress, while_simulating=early)
         write_outputs(result, folder, report=not args.no_report, progress=progress)
     out = sys.stdout
     if result.plan is not None:
@@ -119,5 +121,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(f"{product.name}: every step succeeds at fidelity {result.fidelity.name}", file=out)
     cpu = ", ".join(f"{k} {v:.1f} s" for k, v in result.cpu_s.items())
+    if result.while_simulating_cpu_s > 0:  # the report's plan-only pictures
+        cpu += f", of it {result.while_simulating_cpu_s:.1f} s while simulating"
     print(f"results and report in {args.out}/ ({times}; CPU {cpu})", file=out)
     return result.exit_code
