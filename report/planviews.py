@@ -124,5 +124,8 @@ def render_plan_views(product: Product, geometry: ProductGeometry, sequence: Any
         shoulder, reach = reach_facts(robot)
         plots.reach_plot(product, plan, shoulder, reach, folder / "cell-reach.png")
         out.reach = "cell-reach.png"
+    from .html import report_template
+
+    report_template()  # compiled now, not after the simulation
     out.cpu_s = time.process_time() - c0
     return out

@@ -116,7 +116,7 @@ def clamp_force_plot(record: StepRecord, path: str | Path, *, title: str = "",
     ax.set_xlim(record.t_s[0], record.t_s[-1])
     ax.legend(loc="lower center", fontsize=7, ncol=2, framealpha=0.9)
     if title:
-        ax.set_title(title, fontsize=9, pad=14)
+        ax.set_title(title, fontsize=9, pad=14, y=1.0)  # fixed: see TIME_PLOT_MARGINS
     return _save(fig, path, TIME_PLOT_MARGINS)
 
 
@@ -165,7 +165,7 @@ def insertion_plot(record: StepRecord, path: str | Path, *, target_depth_m: floa
     ax.legend(lines, [ln.get_label() for ln in lines], loc="center left", fontsize=7,
               framealpha=0.9)
     if title:
-        ax.set_title(title, fontsize=9, pad=14)
+        ax.set_title(title, fontsize=9, pad=14, y=1.0)  # fixed: see TIME_PLOT_MARGINS
     return _save(fig, path, TIME_PLOT_MARGINS)
 
 
