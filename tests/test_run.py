@@ -147,23 +147,29 @@ def test_killing_a_run_midway_leaves_the_previous_outdir_intact(tmp_path, sig) -
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
-def test_simulating_while_planning_gives_the_results_of_simulating_afterwards() -> None:
+def test_simulating_while_planning_gives_the_results_of_simulating_afterwards(tmp_path) -> None:
     from asmplan.planner.sequence import SequenceSettings
     from asmplan.sim.fidelity import preset
     from asmplan.sim.simulate import simulate_plan
 
-    # gear_unit ranked without the gripper screening: the planner gives up a better-ranked
-    # order (the collar after the cover) before one plans, so steps started for an abandoned
-    # order must not leak into the results
+    # gear_unit ranked without the gripper screening, with a delicate collar (at most 0.6 N
+    # of clamp force, as in tests/report/test_report_content.py): the planner gives up a
+    # better-ranked order (the collar after the cover: its only grasp there, 45 deg over the
+    # cover, needs 0.84 N) before one plans, so steps started for an abandoned order must not
+    # leak into the results. (The plain collar is held there and that order plans.)
+    text = example_path("gear_unit").read_text()
+    start = "    start: {location: tray, xyz: [80, 220, 10], rpy: [0, 90, 0]}    # on edge, bore along x\n"
+    assert start in text
+    delicate = tmp_path / "gear_unit.yaml"
+    delicate.write_text(text.replace(start, start + "    handling: {max_clamp_force: 0.6}\n"))
     blind = SequenceSettings(gripper_access=False)
-    for name in ("pinhole_station", "gear_unit"):
-        piped = run_product(example_path(name), RunSettings(fidelity="fast", workers=2,
-                                                            sequence=blind))
+    for name, path in (("pinhole_station", example_path("pinhole_station")),
+                       ("gear_unit", delicate)):
+        piped = run_product(path, RunSettings(fidelity="fast", workers=2, sequence=blind))
         assert piped.plan is not None and piped.results is not None
         if name == "gear_unit":
             assert "could not be planned" in piped.plan.sequence_note
-        one = run_product(example_path(name), RunSettings(fidelity="fast", workers=1,
-                                                          sequence=blind))
+        one = run_product(path, RunSettings(fidelity="fast", workers=1, sequence=blind))
         assert one.plan.to_json() == piped.plan.to_json()
         serial = simulate_plan(piped.plan, piped.product, piped.geometry, preset("fast"), workers=1)
         assert piped.results.to_json() == serial.to_json() == one.results.to_json(), name
