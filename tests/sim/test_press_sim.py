@@ -40,13 +40,6 @@ def test_pressed_dowel_goes_home_with_the_lame_force_and_stays(tmp_path, fidelit
     assert result.outcome.final_position_error_m < 0.1e-3
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 16, synchronised jaws: 2.4 mm into the relaxed H7/js6 hole (50 um diametral at "
-    "BALANCED, pin 1 um off the axis) the wall pushes the pin 1.7-3.6 N along the gripper's "
-    "closing axis; floating jaws moved 2.5 um with it and it went home, synchronised jaws "
-    "hold it and it tilts 2.8 deg in the pads (rotational slip 3.45 deg > 3, penetration "
-    "2.4 mm). The wall force across a 25 um radial gap is the pin-hole contact geometry's "
-    "(the contact engineer's exact feature contact), not yet explained"))
 def test_gripper_pressed_transition_fit_at_balanced():
     product = load_product(FIXTURES / "pin_in_pom.yaml")
     plan = plan_product(product, ProductGeometry(product), PlannerSettings(), sequence=["block", "pin"]).plan

@@ -158,10 +158,6 @@ def test_a_press_step_takes_the_samples_force_up_to_the_press_max(tmp_path) -> N
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 16, synchronised jaws: the same gripper-pressed pin_in_pom step as "
-    "tests/sim/test_press_sim.py::test_gripper_pressed_transition_fit_at_balanced tilts "
-    "2.8 deg in the pads when the relaxed hole's wall pushes it along the closing axis"))
 def test_an_interfering_sweep_sample_is_simulated_as_a_press_with_its_force(pom) -> None:
     from asmplan.sim.fidelity import BALANCED
 
