@@ -1052,11 +1052,12 @@ class BulletWorld:
             physicsClientId=self.client_id,
         )
 
-    def couple_joints(self, body: int, joint_a: int, joint_b: int, max_force_N: float) -> int:
+    def couple_joints(self, body: int, joint_a: int, joint_b: int, max_force_N: float,
+                      erp: float = 0.2) -> int:
         """Hold two prismatic joints of ``body`` at equal travel (``q_a = q_b``), as a rack and
         pinion does: a gear constraint (``JOINT_GEAR``, ratio -1) solved with the contacts,
-        its internal force bounded by ``max_force_N`` (N), its drift corrected by the solver's
-        ERP. Returns the constraint id."""
+        its internal force bounded by ``max_force_N`` (N), ``erp`` of its drift corrected per
+        step. Returns the constraint id."""
         cid = self.client_id
         cons = pybullet.createConstraint(body, joint_a, body, joint_b, pybullet.JOINT_GEAR,
                                          [0.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0],
@@ -1064,7 +1065,7 @@ class BulletWorld:
         if cons < 0:
             raise BulletError(f"createConstraint(JOINT_GEAR) failed for body "
                               f"{self.body_name(body)!r} joints {joint_a}, {joint_b}")
-        pybullet.changeConstraint(cons, gearRatio=-1.0, erp=1.0,
+        pybullet.changeConstraint(cons, gearRatio=-1.0, erp=float(erp),
                                   maxForce=self._S * float(max_force_N), physicsClientId=cid)
         return cons
 
