@@ -1053,7 +1053,7 @@ class BulletWorld:
         )
 
     def couple_joints(self, body: int, joint_a: int, joint_b: int, max_force_N: float,
-                      erp: float = 0.2) -> int:
+                      erp: float = 0.5) -> int:
         """Hold two prismatic joints of ``body`` at equal travel (``q_a = q_b``), as a rack and
         pinion does: a gear constraint (``JOINT_GEAR``, ratio -1) solved with the contacts,
         its internal force bounded by ``max_force_N`` (N), ``erp`` of its drift corrected per
