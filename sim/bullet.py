@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import operator
 import os
 import shutil
 import tempfile
@@ -177,6 +178,10 @@ class ShapeDroppedError(BulletError):
 # --------------------------------------------------------------------------------------------
 # Small frame helpers
 # --------------------------------------------------------------------------------------------
+_contact_distance = operator.itemgetter(8)
+"""Signed distance (Bullet units) of a ``getContactPoints`` row."""
+
+
 def _pose_from_bullet(position: Sequence[float], quat_xyzw: Sequence[float], units_per_m: float
                       ) -> np.ndarray:
     """(position, quaternion xyzw) from PyBullet, in its units, -> (4, 4) transform in metres
@@ -879,6 +884,17 @@ class BulletWorld:
         none penetrates); cheaper than ``contacts(body_a).max_penetration_m()``."""
         pts = pybullet.getContactPoints(bodyA=body_a, physicsClientId=self.client_id)
         return max(0.0, -min(c[8] for c in pts) / self._S) if pts else 0.0
+
+    def deepest_contact(self, body_a: int) -> tuple[float, int | None]:
+        """Deepest penetration among body A's contact points after the last step, m (0 when
+        none penetrates), and the body B of its closest point (None without contacts): what
+        ``contacts(body_a)`` gives as ``max_penetration_m()`` and
+        ``body_b[argmin(distance_m)]``, without building the arrays."""
+        pts = pybullet.getContactPoints(bodyA=body_a, physicsClientId=self.client_id)
+        if not pts:
+            return 0.0, None
+        c = min(pts, key=_contact_distance)
+        return max(0.0, -c[8] / self._S), int(c[2])
 
     # ---------------------------------------------------------------- joints
     def disable_motors(self, body: int, joints: Sequence[int]) -> None:

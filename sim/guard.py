@@ -107,12 +107,11 @@ class SceneWatch:
     def _sinking(self, b: int, speed: float, position: tuple[float, float, float] | None,
                  t_s: float) -> Failure | None:
         w = self.world
-        con = w.contacts(b)
-        depth = con.max_penetration_m()
+        depth, partner_body = w.deepest_contact(b)
         before, self._sink[b] = self._sink[b], depth
-        if not (before > self.guard.max_sink_m and depth > before):
+        if not (before > self.guard.max_sink_m and depth > before) or partner_body is None:
             return None
-        partner = w.body_name(int(con.body_b[int(np.argmin(con.distance_m))]))
+        partner = w.body_name(partner_body)
         return Failure("unstable", depth, self.guard.max_sink_m, "m", body=w.body_name(b),
                        position_m=position,
                        detail=(f"sinking into {partner}: penetration {depth * 1e3:.3f} mm "

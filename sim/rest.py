@@ -81,6 +81,15 @@ class RestKeeper:
         self.slept: dict[str, int] = {}
         """How often each body was put to sleep (by name), for the step's record."""
 
+    def _still(self, T_world_body: np.ndarray) -> bool:
+        """Every pose of the window (n, 4, 4) within the rest bounds of its first one."""
+        T0 = T_world_body[0]
+        moved_m = np.linalg.norm(T_world_body[:, :3, 3] - T0[:3, 3], axis=1)
+        if not np.all(moved_m < self._d_rest):
+            return False
+        turned_rad = rotation_angle_rad(T0[:3, :3].T @ T_world_body[:, :3, :3])
+        return bool(np.all(turned_rad < self._a_rest))
+
     def tick(self, released: bool) -> None:
         """Check every candidate after a record row's physics step; ``released``: the held
         part is placed and the fingers are open (a candidate too). Bodies at rest that touch
@@ -103,10 +112,7 @@ class RestKeeper:
                 continue
             if b in movers or len(hist) < self._window_rows:
                 continue
-            T0 = hist[0]
-            if all(float(np.linalg.norm(T[:3, 3] - T0[:3, 3])) < self._d_rest
-                   and rotation_angle_rad(T0[:3, :3].T @ T[:3, :3]) < self._a_rest
-                   for T in hist):
+            if self._still(np.stack(hist)):
                 resting.add(b)
         if not resting:
             return
