@@ -20,9 +20,12 @@ from typing import Any
 from asmplan.commands.bench import SCALING_SIZES
 
 SEED_RUNS = 9
+"""Repetitions of each seed-workstation timing at FAST (medians are reported)."""
 SEED_REPORT_RUNS = 3
-"""Repetitions of the seed workstation at BALANCED with the report (each ~10 s of CPU)."""
-"""Repetitions of each seed-workstation timing (medians are reported)."""
+"""Repetitions of the seed workstation at BALANCED with the report (each ~14 s of CPU)."""
+SEED_JOB_TARGET_S = 5.0
+"""Issues 16/17: the seed workstation's whole job at BALANCED with the report, wall seconds
+on 2 cores. Reported against, not asserted (timings are never asserted)."""
 CULLING_SIZE = 50
 SCALING_FIT_MM = 0.5
 """Diametral clearance of every pin of the generated scaling products, mm: above FAST's
@@ -318,7 +321,7 @@ def run_seed_timing(runs: int = SEED_RUNS, log: Callable[[str], None] | None = N
         if report_runs:
             say(f"seed workstation at BALANCED with the report: median "
                 f"{statistics.median(report_cli):.2f} s wall, {statistics.median(report_cpu):.2f} s "
-                "CPU")
+                f"CPU (target <= {SEED_JOB_TARGET_S:g} s wall on 2 cores)")
     return SeedRunTiming(runs, tuple(cli), tuple(imports), tuple(library), stages, ok, failure,
                          report_runs, tuple(report_cli), tuple(report_cpu), tuple(report_stage),
                          {k: tuple(v) for k, v in stages_wall.items()},

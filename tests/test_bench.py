@@ -120,6 +120,19 @@ def test_seed_section_times_the_workstation_through_the_cli_and_the_library() ->
     assert "Every run succeeded." in text
     assert "BALANCED, with the report (target <= 5 s, 2 cores)" in text
     assert "| stage (BALANCED job with the report) | wall, median | CPU, median |" in text
+    assert "Target <= 5 s on 2 cores: **" in text
+
+
+def test_seed_job_is_reported_against_its_five_second_target() -> None:
+    # CPU / 2 is the least wall time the job needs on 2 idle cores; the verdict is the wall's
+    base = b.SeedRunTiming(1, (1.0,), (0.5,), (0.8,), {}, True, report_runs=3,
+                           report_stage_s=(1.0, 1.2, 1.1))
+    slow = dataclasses.replace(base, report_cli_s=(9.0, 6.0, 7.0), report_cpu_s=(16.0, 12.0, 14.0))
+    text = b.format_seed_timing(slow)
+    assert ("Target <= 5 s on 2 cores: **not met**: median wall 7.00 s; median CPU 14.00 s, i.e. "
+            "at least 7.00 s of wall on 2 otherwise idle cores (1.4x the target).") in text
+    fast = dataclasses.replace(base, report_cli_s=(4.0, 5.0, 3.0), report_cpu_s=(7.0, 8.0, 6.0))
+    assert "Target <= 5 s on 2 cores: **met**: median wall 4.00 s" in b.format_seed_timing(fast)
 
 
 def test_fits_section_counts_a_verdict_against_geometry_and_the_reference() -> None:
