@@ -381,9 +381,12 @@ def format_fits(res: FitsResult) -> str:
     out.append("Median wall time per step: " + ", ".join(f"{k} {v:.1f} s" for k, v in cost.items())
                + ".")
     out.append("")
+    from .cost import SEED_JOB_TARGET_S
+
     for job in res.seed:
         out.append(f"Seed workstation, `asmplan run --fidelity {job.fidelity}` with the report: "
-                   f"exit {job.exit_code}, {job.wall_s:.1f} s wall (stages: "
+                   f"exit {job.exit_code}, {job.wall_s:.1f} s wall (target <= "
+                   f"{SEED_JOB_TARGET_S:g} s on 2 cores; CPU in the seed section; stages: "
                    + ", ".join(f"{k} {v:.1f} s" for k, v in job.stages_s.items()) + "); "
                    + "; ".join(f"{p}: {v} (axial error {e * 1e3:.3f} mm)" for p, v, e, _ in job.steps)
                    + f"; resolution warnings: {len(job.warnings)}.")
