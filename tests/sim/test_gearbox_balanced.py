@@ -1,0 +1,80 @@
+"""The gearbox test product (tests/fixtures/products/gearbox.yaml, issue 18) simulated at
+BALANCED step by step, as `asmplan run --fidelity balanced` does (each step in a fresh world
+holding what the plan has placed). About 70 s CPU for all steps.
+
+Measured on this branch (`asmplan run tests/fixtures/products/gearbox.yaml --fidelity
+balanced -o OUT`, results.json per step), with the cause of each failure:
+
+* spacer (place): succeeded once the spacer got its 0.2 mm end play a side. At 48 mm in the
+  48 mm gap its end face slid flush down the right wall and caught the wall's top edge
+  (1.3 N up on its end with the grip 97 mm up), it turned 20 deg in its 1.3 N pinch and
+  struck the wall at 1059 N: the model (a part with no end play), not the solver.
+* bearing_1: jammed at 9.55 of 12 mm with the 400 N-class estimate (grip 35.4 N per finger,
+  mu 0.35: 24.8 N of axial friction against a 45.5 N jam at 0.19 deg tilt, 2.4 mm slip); the
+  same grasp and clamp with the catalogue gripper (1.9 kg, 100 mm stroke) insert it (peak
+  16.5 N). Borderline: the clamp is planned for weight and inertia only (resistance 0 N), the
+  insertion reaction is the "hold" work (grasp_hold), and H7/h6 is simulated at 0 um.
+* shaft (insert, held by its 24 mm head): slips 1.84 mm and 3.6 deg in the pads during the
+  transfer with nothing touching it, at the planned 289 N per finger. PyBullet's contact of
+  a flat pad on the round head is two points 2 mm apart per pad with normal forces 147 N and
+  1.6 N (probed at hold), so the torsion about the closing axis that the hold criterion
+  credits to a line contact (2 mu F L/4 = 0.40 N m at 289 N) is not delivered. The
+  simulator's contact, not the product: xfail.
+* bearing_2: jams at 4.5 of 16 mm on the seat's chamfer (two housing contacts, 31 and 29 N,
+  tilt 0.54 deg) while its bore runs onto the shaft, and the 48.7 N grip (34 N of axial
+  friction at mu 0.35) slides 11.4 mm. H7/h6 at its 0 um minimum clearance is below
+  BALANCED's 4 um resolution, and the clamp is not sized for the insertion reaction: xfail.
+* cover: the seating's contact force peaks at 66.8 N against the process's 60 N limit (43.1 N
+  with the 1.5 kg gripper estimate, 1.9 kg now; same grasp and 36.2 N clamp). A contact probe
+  finds the gripper's palm (base link) touching the cover through the lift and the transfer
+  (and 26 N of external force on the cover there), gone by the seating; whether the palm's
+  load is what reaches 66.8 N was not established: xfail.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from asmplan.knowledge.loader import load_product
+from asmplan.parts.models import ProductGeometry
+from asmplan.planner.product import plan_product
+from asmplan.sim.fidelity import BALANCED
+from asmplan.sim.simulate import simulate_step
+
+pytestmark = pytest.mark.slow
+
+GEARBOX = Path(__file__).resolve().parents[1] / "fixtures" / "products" / "gearbox.yaml"
+
+
+@pytest.fixture(scope="module")
+def gearbox():
+    product = load_product(GEARBOX)
+    geometry = ProductGeometry(product)
+    return product, geometry, plan_product(product, geometry).plan
+
+
+def _xfail(reason: str):
+    return pytest.mark.xfail(strict=True, reason=reason)
+
+
+@pytest.mark.parametrize("part, kind", [
+    ("dowel_1", "insert"), ("spacer", "place"), ("gear", "place"), ("bearing_1", "insert"),
+    ("shaft", "regrasp"),
+    pytest.param("cover", "insert", marks=_xfail(
+        "peak seating contact 66.8 N > the process's 60 N limit (43.1 N with a 1.5 kg gripper)")),
+    pytest.param("shaft", "insert", marks=_xfail(
+        "slips 1.84 mm / 3.6 deg in the pads during the transfer at 289 N: PyBullet's pad "
+        "contact on the round head is two points with 147 N and 1.6 N, not a line")),
+    pytest.param("bearing_2", "insert", marks=_xfail(
+        "jams 4.5 mm in on the seat chamfer (H7/h6 at 0 um) and the 48.7 N grip (34 N of "
+        "friction at mu 0.35) slides 11.4 mm: clamp not sized for the insertion reaction")),
+])
+def test_gearbox_step_at_balanced(gearbox, part, kind):
+    product, geometry, plan = gearbox
+    step = next(s for s in plan.steps if s.part == part and s.kind == kind)
+    o = simulate_step(plan, step.index, product, geometry, BALANCED).outcome
+    assert o.success, o.reasons
+    assert o.final_position_error_m < product.process.position_tolerance_m
+    assert o.max_slip_m < product.process.max_slip_m
