@@ -258,9 +258,9 @@ def test_the_planner_keeps_the_cheaper_regrasp_with_both_cycles_computed(tmp_pat
     ways = {"through a regrasp fixture": fixture_s, "on the table": table_s}
     assert chosen == pytest.approx(ways[m.group(1)], abs=0.006)
     assert other == pytest.approx(ways[m.group(3)], abs=0.006)
-    assert ways[cheaper] < min(ways.values()) + 1e-12 and ways[cheaper] < max(ways.values())
-    # the margins measured when this test was written (both over 0.4 s)
-    assert max(ways.values()) - min(ways.values()) > 0.4
+    assert ways[cheaper] == min(ways.values())
+    # not a choice within rounding: the margins were 0.43 and 1.44 s when this was written
+    assert max(ways.values()) - min(ways.values()) > 0.2
 
 
 @pytest.mark.slow
