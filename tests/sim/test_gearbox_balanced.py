@@ -16,8 +16,9 @@ balanced -o OUT`, results.json per step), with the cause of each failure:
   insertion reaction is the "hold" work (grasp_hold), and H7/h6 is simulated at 0 um.
 * shaft (insert, held by its 24 mm head): slips 1.84 mm and 3.6 deg in the pads during the
   transfer with nothing touching it, at the planned 289 N per finger. PyBullet's contact of
-  a flat pad on the round head is two points 2 mm apart per pad with normal forces 147 N and
-  1.6 N (probed at hold), so the torsion about the closing axis that the hold criterion
+  a flat pad on the round head is two points 2 mm apart along the shaft per pad, with normal
+  forces 279 N and 4 N at hold (147 N and 1.6 N while the clamp ramps; probed with
+  BulletWorld.contacts every 50 steps), so the torsion about the closing axis that the criterion
   credits to a line contact (2 mu F L/4 = 0.40 N m at 289 N) is not delivered. The
   simulator's contact, not the product: xfail.
 * bearing_2: jams at 4.5 of 16 mm on the seat's chamfer (two housing contacts, 31 and 29 N,
@@ -66,7 +67,7 @@ def _xfail(reason: str):
         "peak seating contact 66.8 N > the process's 60 N limit (43.1 N with a 1.5 kg gripper)")),
     pytest.param("shaft", "insert", marks=_xfail(
         "slips 1.84 mm / 3.6 deg in the pads during the transfer at 289 N: PyBullet's pad "
-        "contact on the round head is two points with 147 N and 1.6 N, not a line")),
+        "contact on the round head is two points with 279 N and 4 N at hold, not a line")),
     pytest.param("bearing_2", "insert", marks=_xfail(
         "jams 4.5 mm in on the seat chamfer (H7/h6 at 0 um) and the 48.7 N grip (34 N of "
         "friction at mu 0.35) slides 11.4 mm: clamp not sized for the insertion reaction")),
