@@ -91,3 +91,52 @@ def test_a_tray_part_beyond_reach_carries_the_arm_reason_in_every_order():
                   r"is (\d+) mm from the arm's shoulder, reach 700 mm", step.unreachable)
     assert m, step.unreachable
     assert 900 < float(m.group(2)) < 1200
+
+
+def test_the_order_whose_step_needs_the_forearm_through_a_placed_part_ranks_below():
+    """guard.yaml: with the 480 mm guard standing, the forearm at the peg's pre-insertion and
+    seated poses passes through it (every IK branch); the gripper alone is clear. Ranked by
+    the names alone (every other term equal) guard-first would come first; with the arm's
+    links screened it ranks below, its reason naming the link and the guard, and the motion
+    planner fails that order at the peg's step on the same pair."""
+    product = load_product(FIXTURES / "guard.yaml")
+    oracle = FclOracle(product, ProductGeometry(product))
+    blind = plan_sequence(product, oracle, dataclasses.replace(EVEN, arm_collisions=False))
+    assert blind.best.order == ("block", "guard", "peg")
+    assert all(s.terms["unreachable"] == 0 for s in blind.sequences)
+
+    sp = plan_sequence(product, oracle, EVEN)
+    first, second = sp.sequences
+    assert first.order == ("block", "peg", "guard") and first.terms["unreachable"] == 0
+    assert second.order == ("block", "guard", "peg") and second.terms["unreachable"] == 1
+    step = second.steps[2]
+    assert step.part == "peg"
+    assert re.search(r"the arm cannot reach peg with guard placed: at the pre-insertion and "
+                     r"seated poses .*forearm \(arm:link3\) hits guard", step.unreachable), \
+        step.unreachable
+    # the motion planner, checking every state of the path with FCL, agrees
+    from asmplan.planner.errors import ArmCollisionError
+    from asmplan.planner.product import plan_product
+
+    with pytest.raises(ArmCollisionError) as info:
+        plan_product(product, ProductGeometry(product), sequence=("block", "guard", "peg"))
+    assert info.value.part == "peg"
+    assert any(p.a == "arm:link3" and p.b == "guard" for p in info.value.pairs)
+
+
+def test_a_fixture_in_the_forearm_s_way_makes_the_step_unreachable_in_every_order():
+    """column.yaml: the clamp column is fixtured (in its pose from the start), so a branch
+    whose links meet it is unusable in every order, like the table; the reason names the
+    pair. (The motion planner's failure on the same pair: tests/planner/test_arm.py.)"""
+    product = load_product(FIXTURES / "column.yaml")
+    sp = plan_sequence(product, FclOracle(product, ProductGeometry(product)))
+    for seq in sp.sequences:
+        step = next(st for st in seq.steps if st.part == "peg")
+        assert seq.terms["unreachable"] == 1
+        assert re.search(r"the arm cannot do the step of peg in any order: pre-insertion and "
+                         r"seated poses of peg: .*(upper arm|forearm) \(arm:link\d\) hits "
+                         r"column \(every inverse-kinematics branch\)", step.unreachable), \
+            step.unreachable
+    blind = plan_sequence(product, FclOracle(product, ProductGeometry(product)),
+                          SequenceSettings(arm_collisions=False))
+    assert all(s.terms["unreachable"] == 0 for s in blind.sequences)
