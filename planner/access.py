@@ -227,18 +227,47 @@ class GripperAccess:
 
                 self._links = ArmLinkScreen(robot, self._arm.arm, self._scene)
 
-    def access(self, part: str, insertion: np.ndarray, pre_distance_m: float,
+    def access(self, part: str, insertion: np.ndarray, pre_distance_m: float | None = None,
                required: frozenset[str] = frozenset()) -> Access:
         """Access to ``part``'s step along the unit world ``insertion`` (3,), whose straight
-        insertion starts ``pre_distance_m`` before the seated pose; ``required`` are the parts
-        every order places before it (grasps meeting them are skipped)."""
+        insertion starts ``pre_distance_m`` before the seated pose (None: where the motion
+        planner starts it, :meth:`pre_distance_m`); ``required`` are the parts every order
+        places before it (grasps meeting them are skipped)."""
         u = np.asarray(insertion, float) / float(np.linalg.norm(insertion))
+        if pre_distance_m is None:
+            pre_distance_m = self.pre_distance_m(part, u, required)
         key = (part, tuple(np.round(u, 6)), round(pre_distance_m, 6), tuple(sorted(required)))
         hit = self._cache.get(key)
         if hit is None:
             hit = self._compute(part, u, pre_distance_m, frozenset(required))
             self._cache[key] = hit
         return hit
+
+    def pre_distance_m(self, part: str, insertion: np.ndarray,
+                       placed: frozenset[str] = frozenset()) -> float:
+        """The pre-insertion distance the motion planner uses
+        (:meth:`asmplan.planner.motion.MotionPlanner` step setup) with the parts ``placed``
+        (the ones every order places first) and the fixtured ones in their assembled poses:
+        the approach distance plus the longest engaged travel of the part's mates with them
+        (:func:`asmplan.planner.insertion.mate_engagement_m`, the clearing travel through
+        every bore), backed off along the insertion until the part stands the position
+        tolerance clear of the table and them (:func:`asmplan.planner.insertion.clear_standoff_m`).
+        With more parts placed the planner's start can only lie farther out."""
+        from .insertion import clear_standoff_m, mate_engagement_m
+
+        if self._scene is None:
+            self._setup()
+        product = self.product
+        present = set(placed) | {n for n in product.part_names
+                                 if n != part and product.is_fixtured(n)}
+        u = np.asarray(insertion, float) / float(np.linalg.norm(insertion))
+        engaged = max((mate_engagement_m(product, m, self._parts) for m in product.mates
+                       if (m.pin_part == part and m.hole_part in present)
+                       or (m.hole_part == part and m.pin_part in present)), default=0.0)
+        return clear_standoff_m(self._scene, part, product.T_world_assembled(part), u,
+                                [*self._scene.cell, *sorted(present)],
+                                product.process.approach_distance_m + engaged,
+                                clearance_m=product.process.position_tolerance_m)
 
     # Complexity above C (radon): every grasp candidate passes the same screens in order (below the
     # table, its poses, the insertion and retreat sweeps, minimality), each a branch that drops it.

@@ -220,13 +220,10 @@ class _Compiled:
     def _access(self, p: int, d: int) -> Any:
         name = self.names[p]
         ins = self.table.directions[name][d].insertion
-        pre = self.product.process.approach_distance_m + max(
-            (self.product.feature(m.pin_part, m.pin_feature).length_m for m in self.product.mates
-             if name in (m.pin_part, m.hole_part)), default=0.0)
         required = frozenset(self.bits(self.pred[p]))
         if self.access is None:
             raise ValueError("gripper access is off (SequenceSettings.gripper_access)")
-        return self.access.access(name, ins, pre, required)
+        return self.access.access(name, ins, None, required)  # the planner's start
 
     def reachable(self, p: int, d: int, done: int) -> bool:
         """Whether some screened grasp of part p (inserted along direction d) is free of

@@ -52,7 +52,10 @@ def test_the_order_whose_step_the_arm_cannot_reach_ranks_below_with_its_reason(d
     assert step.part == "drawer" and step.insertion_label == "-x"
     dist, reach = _mm(step.unreachable, "pre-insertion pose")
     assert reach == 650 and dist > reach
-    assert step.unreachable.startswith("the arm cannot reach drawer")
+    # the motion planner's start along -x: clear of the cabinet (110 mm out), then the
+    # 80 mm approach: every grasp is beyond the reach there, whatever else is placed
+    assert step.unreachable.startswith("the arm cannot do the step of drawer in any order: "
+                                       "pre-insertion pose of drawer is")
     # with the default weights the reachable order was first already; it stays first
     default = plan_sequence(product, oracle, SequenceSettings(top_k=4))
     assert default.best.order == ("cabinet", "drawer", "cover")
@@ -61,8 +64,10 @@ def test_the_order_whose_step_the_arm_cannot_reach_ranks_below_with_its_reason(d
 
 def test_the_reported_distance_is_the_flange_from_the_shoulder(drawer):
     """The screened distance is |flange - shoulder| (computed here from the base pose, the
-    mounting and the shoulder without the planner): it grows by the 80 mm approach along x
-    from the seated pose, so it lies within [d_seated, d_seated + 80 mm] for the same grasp."""
+    mounting and the shoulder without the planner) at the motion planner's pre-insertion
+    pose: 190 mm along +x from the seated pose (110 mm to clear the cabinet's walls, then the
+    80 mm approach), within the tool's length of the part's pre-insertion position."""
+    from asmplan.planner.access import GripperAccess
     from asmplan.planner.arm import ArmModel
     from asmplan.planner.plan import ArmSettings
 
@@ -72,7 +77,10 @@ def test_the_reported_distance_is_the_flange_from_the_shoulder(drawer):
     arm = ArmModel(product.resources.robot, ArmSettings())
     shoulder = (arm.T_world_base @ np.append(arm.shoulder_base, 1.0))[:3]
     seat = product.T_world_assembled("drawer")[:3, 3]
-    pre = seat + np.array([0.08, 0.0, 0.0])
+    pre_m = GripperAccess(product).pre_distance_m("drawer", np.array([-1.0, 0.0, 0.0]),
+                                                  frozenset({"cabinet", "cover"}))
+    assert pre_m == pytest.approx(0.190, abs=1e-6)
+    pre = seat + np.array([pre_m, 0.0, 0.0])
     # the flange is within the tool's length (mounting + TCP offset) of the TCP, which is
     # within the part's half-size of its centre
     tool = float(np.linalg.norm(product.resources.robot.T_flange_tcp[:3, 3])) + 0.1
@@ -140,3 +148,31 @@ def test_a_fixture_in_the_forearm_s_way_makes_the_step_unreachable_in_every_orde
     blind = plan_sequence(product, FclOracle(product, ProductGeometry(product)),
                           SequenceSettings(arm_collisions=False))
     assert all(s.terms["unreachable"] == 0 for s in blind.sequences)
+
+
+def test_the_screened_pre_insertion_pose_is_the_motion_planners():
+    """gear_unit: for every step, the access screening's pre-insertion distance with the
+    parts placed before it equals the plan's (|T_world_pre_insertion - seated|); the shaft's is its clearing travel through both
+    bearing bores plus the approach (70 mm), not its pin feature's length (60 mm)."""
+    from asmplan.examples import __file__ as examples_init
+    from asmplan.planner.access import GripperAccess
+    from asmplan.planner.product import plan_product
+
+    product = load_product(Path(examples_init).parent / "gear_unit.yaml")
+    plan = plan_product(product, ProductGeometry(product)).plan
+    access = GripperAccess(product, ProductGeometry(product))
+    order = list(plan.sequence)
+    checked = 0
+    for step in plan.steps:
+        if step.T_world_pre_insertion is None:
+            continue
+        seated = product.T_world_assembled(step.part)[:3, 3]
+        planned = float(np.linalg.norm(step.T_world_pre_insertion[:3, 3] - seated))
+        placed = frozenset(order[:order.index(step.part)])
+        screened = access.pre_distance_m(step.part, step.insertion_direction, placed)
+        assert screened == pytest.approx(planned, abs=1e-6), step.part
+        checked += 1
+    assert checked >= 6
+    shaft = plan.step("shaft")
+    assert float(np.linalg.norm(shaft.T_world_pre_insertion[:3, 3] - product.T_world_assembled(
+        "shaft")[:3, 3])) == pytest.approx(0.070, abs=1e-6)
