@@ -176,3 +176,34 @@ def test_the_screened_pre_insertion_pose_is_the_motion_planners():
     shaft = plan.step("shaft")
     assert float(np.linalg.norm(shaft.T_world_pre_insertion[:3, 3] - product.T_world_assembled(
         "shaft")[:3, 3])) == pytest.approx(0.070, abs=1e-6)
+
+
+def test_the_sequence_inserts_along_the_direction_the_arm_can_reach():
+    """drawer_front.yaml: the drawer may go into its raised cabinet from above (-z, the
+    sequencer's first choice without the arm) or through the front (+x). From above the
+    pre-insertion pose is beyond the stated 580 mm reach; through the front it starts 190 mm
+    closer to the arm. The sequence takes +x, and the motion planner plans the step that way
+    (starting where the screening put it) instead of failing on the reach."""
+    from asmplan.planner.access import GripperAccess
+    from asmplan.planner.product import plan_product
+
+    product = load_product(FIXTURES / "drawer_front.yaml")
+    oracle = FclOracle(product, ProductGeometry(product))
+    blind = plan_sequence(product, oracle, SequenceSettings(arm_reach=False))
+    assert blind.best.steps[1].insertion_label == "-z"
+    sp = plan_sequence(product, oracle)
+    step = sp.best.steps[1]
+    assert step.part == "drawer" and step.insertion_label == "+x"
+    assert step.free_insertions == ("+x", "-z")
+    assert sp.best.terms["unreachable"] == 0 and step.unreachable == ""
+
+    plan = plan_product(product, ProductGeometry(product)).plan
+    planned = plan.step("drawer")
+    assert np.allclose(planned.insertion_direction, [1.0, 0.0, 0.0])
+    seated = product.T_world_assembled("drawer")[:3, 3]
+    pre_m = GripperAccess(product).pre_distance_m("drawer", np.array([1.0, 0.0, 0.0]),
+                                                  frozenset({"cabinet"}))
+    assert pre_m == pytest.approx(0.190, abs=1e-6)
+    assert float(np.linalg.norm(planned.T_world_pre_insertion[:3, 3] - seated)) == \
+        pytest.approx(pre_m, abs=1e-6)
+    assert planned.arm is not None
