@@ -204,6 +204,13 @@ def _geometric_axes(surface: GraspSurface, min_area_fraction: float) -> list[np.
 
 # Complexity above C (radon): a lazy best-first generator: hint, faces, finger placements and the lead
 # limit are filtered inline so that a rejected candidate costs nothing.
+def _dot3(u: float, v: float, x: list[float], a: list[float], ins: list[float]) -> float:
+    """``(u x + v a) . ins`` for 3-vectors given as lists (within a few ulp of numpy's
+    ``(u * x + v * a) @ ins``, which may use fused multiply-adds)."""
+    return ((u * x[0] + v * a[0]) * ins[0] + (u * x[1] + v * a[1]) * ins[1]
+            + (u * x[2] + v * a[2]) * ins[2])
+
+
 def iter_grasps(
     part: str,
     surface: GraspSurface,
@@ -298,6 +305,7 @@ def iter_grasps(
     # (lower bound, serial, frame, u, v, hint, cost without the hold term)
     todo: list[tuple[float, int, int, float, float, bool, float]] = []
     rel = P - com
+    hold_lbs: dict[float, float] = {}  # hold term lower bound per lever (few distinct ones)
     for c in closing_axes(surface, hint):
         is_hint_c = hint_c is not None and abs(float(np.dot(c, hint_c))) > 0.999
         a0 = _perpendicular(c, down_s)
@@ -376,18 +384,31 @@ def iter_grasps(
                         v = (lead_limit_m - _STOP_GAP_M - reach - u * float(x @ ins)) / a_ins
                         if v_lo <= v <= v_hi:
                             centres.append((u, round(v, 9)))
+            # the lead test per centre: (u x + v a) . ins from Python floats (numpy's dot
+            # may round differently in the last bit: it decides near the limit)
+            lead = reach is not None and lead_limit_m is not None
+            if lead:
+                xs, as_ = x.tolist(), a.tolist()
+                ins_l = ins.tolist()
             for u, v in centres:
-                if any(k + u * xz + v * az < 0.0 for xz, az, k in floors):
+                if floors and any(k + u * xz + v * az < 0.0 for xz, az, k in floors):
                     if stats is not None:
                         stats["below_table"] = stats.get("below_table", 0) + 1
                     continue
                 known = base
-                if (reach is not None and lead_limit_m is not None
-                        and float((u * x + v * a) @ ins) + reach > lead_limit_m):
-                    known += 1.0
+                if lead:
+                    # decided by the scalar sum unless within rounding of the limit; there
+                    # numpy's own dot product decides, as it always did
+                    over = _dot3(u, v, xs, as_, ins_l) + reach - lead_limit_m
+                    if over > 1e-12 or (over > -1e-12 and float((u * x + v * a) @ ins) + reach
+                                        > lead_limit_m):
+                        known += 1.0
                 # the hold term (below) is at least this, whatever the patches
                 lever_lb = math.hypot(max(0.0, abs(u) - W / 2), max(0.0, abs(v) - L / 2))
-                hold_lb = hold_term(1.0, hold_lower_bound(lever_lb, W, L, accel))
+                hold_lb = hold_lbs.get(lever_lb)
+                if hold_lb is None:
+                    hold_lb = hold_lbs[lever_lb] = hold_term(
+                        1.0, hold_lower_bound(lever_lb, W, L, accel))
                 todo.append((known + hold_lb, len(todo), fi, u, v, is_hint, known))
     todo.sort(key=lambda t: (t[0], t[1]))
     heap: list[tuple[float, int, tuple[Any, ...], bool]] = []
