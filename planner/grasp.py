@@ -204,13 +204,6 @@ def _geometric_axes(surface: GraspSurface, min_area_fraction: float) -> list[np.
 
 # Complexity above C (radon): a lazy best-first generator: hint, faces, finger placements and the lead
 # limit are filtered inline so that a rejected candidate costs nothing.
-def _dot3(u: float, v: float, x: list[float], a: list[float], ins: list[float]) -> float:
-    """``(u x + v a) . ins`` for 3-vectors given as lists (within a few ulp of numpy's
-    ``(u * x + v * a) @ ins``, which may use fused multiply-adds)."""
-    return ((u * x[0] + v * a[0]) * ins[0] + (u * x[1] + v * a[1]) * ins[1]
-            + (u * x[2] + v * a[2]) * ins[2])
-
-
 def iter_grasps(
     part: str,
     surface: GraspSurface,
@@ -384,12 +377,11 @@ def iter_grasps(
                         v = (lead_limit_m - _STOP_GAP_M - reach - u * float(x @ ins)) / a_ins
                         if v_lo <= v <= v_hi:
                             centres.append((u, round(v, 9)))
-            # the lead test per centre: (u x + v a) . ins from Python floats (numpy's dot
-            # may round differently in the last bit: it decides near the limit)
+            # the lead test per centre: (u x + v a) . ins = u (x . ins) + v (a . ins) in
+            # Python floats, within rounding of numpy's dot, which decides near the limit
             lead = reach is not None and lead_limit_m is not None
             if lead:
-                xs, as_ = x.tolist(), a.tolist()
-                ins_l = ins.tolist()
+                x_ins, a_ins = float(x @ ins), float(a @ ins)
             for u, v in centres:
                 if floors and any(k + u * xz + v * az < 0.0 for xz, az, k in floors):
                     if stats is not None:
@@ -399,7 +391,7 @@ def iter_grasps(
                 if lead:
                     # decided by the scalar sum unless within rounding of the limit; there
                     # numpy's own dot product decides, as it always did
-                    over = _dot3(u, v, xs, as_, ins_l) + reach - lead_limit_m
+                    over = u * x_ins + v * a_ins + reach - lead_limit_m
                     if over > 1e-12 or (over > -1e-12 and float((u * x + v * a) @ ins) + reach
                                         > lead_limit_m):
                         known += 1.0
