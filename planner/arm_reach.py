@@ -18,9 +18,11 @@ first:
 
 Results are cached per pose (rounded to 1 um and 1e-6), so a part's pick and lifted poses,
 which do not depend on the insertion direction, are solved once per grasp. The result does
-not depend on which parts are placed (the arm's collisions are the motion planner's: this is
-a screening of reach and joint limits), so an order whose step needs a pose the arm cannot
-reach carries that step's reason in every order that uses it.
+not depend on which parts are placed, so an order whose step needs a pose the arm cannot
+reach carries that step's reason in every order that uses it. The arm's links at the
+pre-insertion and seated poses, which do depend on the parts placed, are checked by
+:mod:`asmplan.planner.arm_reach_collisions` from the solutions found here
+(:meth:`ArmReach.solution`).
 
 This module imports no kinematics library itself; :mod:`asmplan.planner.arm` (pinocchio) is
 loaded only when the cell has an arm.
