@@ -18,8 +18,11 @@ some grasp's set is disjoint from ``S``, a set operation like the blocking table
 search stays exact and fast; only the minimal sets are kept.
 
 With an arm in the cell, each grasp that could give a new set is also screened for the arm's
-reach and joint limits at the step's key TCP poses (:mod:`asmplan.planner.arm_reach`); a
-grasp the arm cannot hold is dropped, and the best-ranked one's reason is kept.
+reach and joint limits at the step's key TCP poses (:mod:`asmplan.planner.arm_reach`) and for
+its links' collisions at the pre-insertion and seated poses
+(:mod:`asmplan.planner.arm_reach_collisions`: the parts a link meets join the grasp's set, as
+the parts its fingers meet); a grasp the arm cannot hold is dropped, and the best-ranked one's
+reason is kept.
 
 This is a screening model, not the motion planner: it looks at a bounded number of grasps
 (``max_grasps``), only at the assembled end of the step (start poses are fixed whatever the
@@ -46,6 +49,7 @@ import numpy as np
 
 from ..knowledge.model import Product
 from .arm_reach import ArmReach, ReachFailure
+from .errors import ArmCollisionError
 from .grasp import iter_grasps
 from .grasp_hold import GripLoad
 
@@ -89,6 +93,11 @@ class AccessSettings:
         pre-insertion and seated TCP poses the arm can take (reach and joint limits,
         :mod:`asmplan.planner.arm_reach`). Once no grasp is kept, the screening stops after
         ``patience`` candidates in a row beyond the arm.
+    arm_collisions : bool
+        With ``arm_reach``, also check the arm's links at the pre-insertion and seated poses
+        against the table and the other parts (:mod:`asmplan.planner.arm_reach_collisions`):
+        parts a usable IK branch's links meet join the grasp's blocking set; a grasp with no
+        usable branch is dropped with the colliding pair as the reason.
     """
 
     max_grasps: int = 24
@@ -100,6 +109,7 @@ class AccessSettings:
     contact_tolerance_m: float = 2e-5
     sample_step_m: float = 2e-3
     arm_reach: bool = True
+    arm_collisions: bool = True
 
     def __post_init__(self) -> None:
         for name in ("max_grasps", "max_candidates", "patience", "surface_samples"):
@@ -132,6 +142,9 @@ class Access:
     beyond_arm : int
         Candidates dropped because the cell's arm cannot take one of their key TCP poses
         (:mod:`asmplan.planner.arm_reach`); ``arm_failure`` says why for the best-ranked one.
+    arm_hits : ArmCollisionError or None
+        The arm's links meeting parts at a kept grasp's pre-insertion and seated poses (the
+        first such grasp; those parts are in its set), for the reason.
     """
 
     part: str
@@ -141,6 +154,7 @@ class Access:
     meets_predecessors: int = 0
     beyond_arm: int = 0
     arm_failure: ReachFailure | None = None
+    arm_hits: ArmCollisionError | None = None
 
     def reachable(self, present: frozenset[str] | set[str]) -> bool:
         return any(not (o & present) for o in self.options)
@@ -154,7 +168,8 @@ class Access:
             if arm:
                 return (f"the arm cannot do the step of {self.part} in any order: {arm}; of "
                         f"{self.examined} grasp candidates screened, {self.beyond_arm} are "
-                        f"beyond the arm's reach or joint limits, {self.below_table} put the "
+                        f"beyond the arm's reach or joint limits or put its links into the "
+                        f"cell, {self.below_table} put the "
                         f"fingers below the table top and {self.meets_predecessors} meet a part "
                         "that must be placed before it")
             return (f"no grasp of {self.part} can be used in any order: of {self.examined} "
@@ -162,10 +177,18 @@ class Access:
                     f"top (at the start or the assembled pose) and {self.meets_predecessors} "
                     "meet a part that must be placed before it")
         met = sorted(set().union(*(o & present for o in self.options)))
+        hit = self.arm_hits
+        if not arm and hit is not None and {p.b for p in hit.pairs} & set(present):
+            return (f"the arm cannot reach {self.part} with {', '.join(met)} placed: at the "
+                    f"pre-insertion and seated poses {hit.listed} (every usable "
+                    f"inverse-kinematics branch, or the gripper, of the {self.examined} grasp "
+                    f"candidates screened meets {', '.join(met)} or a part that must precede "
+                    f"{self.part})")
         if arm:
             return (f"the arm cannot reach {self.part}: {arm} ({self.beyond_arm} of "
                     f"{self.examined} grasp candidates screened beyond the arm's reach or "
-                    f"joint limits); every other grasp meets {', '.join(met)} or a part that "
+                    f"joint limits or putting its links into the cell); every other grasp "
+                    f"meets {', '.join(met)} or a part that "
                     f"must precede {self.part} (at the seated pose, along the insertion or on "
                     "the retreat)")
         return (f"the gripper cannot reach {self.part}: every grasp screened ({self.examined} "
@@ -184,6 +207,7 @@ class GripperAccess:
     _parts: Any = None
     _cache: dict[tuple[Any, ...], Access] = field(default_factory=dict)
     _arm: ArmReach | None = None
+    _links: Any = None  # ArmLinkScreen: the arm's links at the assembled-end poses
 
     def _setup(self) -> None:
         from ..parts.models import ProductGeometry
@@ -205,19 +229,52 @@ class GripperAccess:
         robot = self.product.resources.robot
         if self.settings.arm_reach and robot is not None and robot.urdf_path is not None:
             self._arm = ArmReach(robot)
+            if self.settings.arm_collisions:
+                from .arm_reach_collisions import ArmLinkScreen
 
-    def access(self, part: str, insertion: np.ndarray, pre_distance_m: float,
+                self._links = ArmLinkScreen(robot, self._arm.arm, self._scene)
+
+    def access(self, part: str, insertion: np.ndarray, pre_distance_m: float | None = None,
                required: frozenset[str] = frozenset()) -> Access:
         """Access to ``part``'s step along the unit world ``insertion`` (3,), whose straight
-        insertion starts ``pre_distance_m`` before the seated pose; ``required`` are the parts
-        every order places before it (grasps meeting them are skipped)."""
+        insertion starts ``pre_distance_m`` before the seated pose (None: where the motion
+        planner starts it, :meth:`pre_distance_m`); ``required`` are the parts every order
+        places before it (grasps meeting them are skipped)."""
         u = np.asarray(insertion, float) / float(np.linalg.norm(insertion))
+        if pre_distance_m is None:
+            pre_distance_m = self.pre_distance_m(part, u, required)
         key = (part, tuple(np.round(u, 6)), round(pre_distance_m, 6), tuple(sorted(required)))
         hit = self._cache.get(key)
         if hit is None:
             hit = self._compute(part, u, pre_distance_m, frozenset(required))
             self._cache[key] = hit
         return hit
+
+    def pre_distance_m(self, part: str, insertion: np.ndarray,
+                       placed: frozenset[str] = frozenset()) -> float:
+        """The pre-insertion distance the motion planner uses
+        (:meth:`asmplan.planner.motion.MotionPlanner` step setup) with the parts ``placed``
+        (the ones every order places first) and the fixtured ones in their assembled poses:
+        the approach distance plus the longest engaged travel of the part's mates with them
+        (:func:`asmplan.planner.insertion.mate_engagement_m`, the clearing travel through
+        every bore), backed off along the insertion until the part stands the position
+        tolerance clear of the table and them (:func:`asmplan.planner.insertion.clear_standoff_m`).
+        With more parts placed the planner's start can only lie farther out."""
+        from .insertion import clear_standoff_m, mate_engagement_m
+
+        if self._scene is None:
+            self._setup()
+        product = self.product
+        present = set(placed) | {n for n in product.part_names
+                                 if n != part and product.is_fixtured(n)}
+        u = np.asarray(insertion, float) / float(np.linalg.norm(insertion))
+        engaged = max((mate_engagement_m(product, m, self._parts) for m in product.mates
+                       if (m.pin_part == part and m.hole_part in present)
+                       or (m.hole_part == part and m.pin_part in present)), default=0.0)
+        return clear_standoff_m(self._scene, part, product.T_world_assembled(part), u,
+                                [*self._scene.cell, *sorted(present)],
+                                product.process.approach_distance_m + engaged,
+                                clearance_m=product.process.position_tolerance_m)
 
     # Complexity above C (radon): every grasp candidate passes the same screens in order (below the
     # table, its poses, the insertion and retreat sweeps, minimality), each a branch that drops it.
@@ -253,6 +310,7 @@ class GripperAccess:
         sets: list[frozenset[str]] = []
         examined = below = before = beyond = 0
         arm_failure: ReachFailure | None = None
+        arm_hits: ArmCollisionError | None = None
         stale = 0  # candidates in a row, since one was kept, that gave no new minimal set
         arm_run = 0  # candidates in a row beyond the arm
         T_pre = T_final.copy()
@@ -287,12 +345,23 @@ class GripperAccess:
             if any(o <= met for o in sets):  # the segments only add parts: not minimal
                 sets.append(frozenset(met))
                 continue
+            arm_sets: tuple[frozenset[str], ...] = (frozenset(),)
             if self._arm is not None:  # the arm at the step's key poses: only
                 # for grasps the gripper can use that may give a new minimal set
+                P = T_pre @ g.T_part_gripper
                 fail = self._arm.screen(part, (
                     ("pick pose", T_start @ g.T_part_gripper),
                     ("lifted pose", T_lift @ g.T_part_gripper),
-                    ("pre-insertion pose", T_pre @ g.T_part_gripper), ("seated pose", G)))
+                    ("pre-insertion pose", P), ("seated pose", G)))
+                if fail is None and self._links is not None:
+                    hits = self._links.screen(
+                        part, (("pre-insertion pose", P), ("seated pose", G)),
+                        (self._arm.solution(P), self._arm.solution(G)), others)
+                    arm_sets = tuple(m for m in hits.sets if not m & required)
+                    if arm_sets and arm_sets != (frozenset(),):
+                        arm_hits = arm_hits or hits.error
+                    if not arm_sets and hits.error is not None:
+                        fail = ReachFailure("pre-insertion and seated poses", hits.error)
                 if fail is not None:
                     beyond += 1
                     arm_run += 1
@@ -308,15 +377,18 @@ class GripperAccess:
             met.discard(TABLE)
             if met & required:
                 before += 1
-            else:
-                if not any(o <= met for o in sets):
+                continue
+            for arm_met in arm_sets:  # one set per usable arm branch
+                full = frozenset(met | arm_met)
+                if not any(o <= full for o in sets):
                     stale = 0
-                sets.append(frozenset(met))
-                if not met:  # free in every partial assembly: no other grasp can add to it
-                    break
+                sets.append(full)
+            if not met and frozenset() in arm_sets:
+                break  # free in every partial assembly: no other grasp can add to it
         minimal = sorted({m for m in sets if not any(o < m for o in sets)},
                          key=lambda m: (len(m), sorted(m)))
-        return Access(part, tuple(minimal), examined, below, before, beyond, arm_failure)
+        return Access(part, tuple(minimal), examined, below, before, beyond, arm_failure,
+                      arm_hits)
 
 
 def _segment_hits(scene: Any, body: str, T: np.ndarray, delta: np.ndarray,

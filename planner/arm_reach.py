@@ -18,9 +18,11 @@ first:
 
 Results are cached per pose (rounded to 1 um and 1e-6), so a part's pick and lifted poses,
 which do not depend on the insertion direction, are solved once per grasp. The result does
-not depend on which parts are placed (the arm's collisions are the motion planner's: this is
-a screening of reach and joint limits), so an order whose step needs a pose the arm cannot
-reach carries that step's reason in every order that uses it.
+not depend on which parts are placed, so an order whose step needs a pose the arm cannot
+reach carries that step's reason in every order that uses it. The arm's links at the
+pre-insertion and seated poses, which do depend on the parts placed, are checked by
+:mod:`asmplan.planner.arm_reach_collisions` from the solutions found here
+(:meth:`ArmReach.solution`).
 
 This module imports no kinematics library itself; :mod:`asmplan.planner.arm` (pinocchio) is
 loaded only when the cell has an arm.
@@ -36,7 +38,7 @@ import numpy as np
 
 from ..knowledge.model import Robot
 from ..parts.cell import HALF_TURN
-from .errors import ArmError, ArmPathError, JointLimitError, OutOfReachError
+from .errors import ArmCollisionError, ArmError, ArmPathError, JointLimitError, OutOfReachError
 from .plan import ArmSettings
 
 if TYPE_CHECKING:
@@ -75,6 +77,8 @@ class ReachFailure:
                     f"{np.degrees(e.value_rad):.1f} deg, beyond its limits "
                     f"[{np.degrees(e.lower_rad):.1f}, {np.degrees(e.upper_rad):.1f}] deg "
                     "(every inverse-kinematics branch)")
+        if isinstance(e, ArmCollisionError):
+            return f"{self.pose} of {e.part}: {e.listed} (every inverse-kinematics branch)"
         return f"{self.pose} of {e.part}: {getattr(e, 'reason', e)}"
 
 
@@ -97,6 +101,7 @@ class ArmReach:
     settings: ArmSettings = field(default_factory=ArmSettings)
     _arm: ArmModel | None = None
     _cache: dict[bytes, ArmError | None] = field(default_factory=dict)
+    _q: dict[bytes, np.ndarray] = field(default_factory=dict)
     _near: np.ndarray | None = None
     solved: int = 0  # poses that needed IK (not answered by the cache or the reach tier)
 
@@ -127,11 +132,17 @@ class ArmReach:
                 q = arm.ik_any(turned, self._near)
             if q is not None:
                 self._near = q
+                self._q[key] = q
                 err = None
             else:
                 err = self._evidence(part, what, T_world_tcp, dist)
         self._cache[key] = err
         return err
+
+    def solution(self, T_world_tcp: np.ndarray) -> np.ndarray | None:
+        """The joint angles (6,) found for a pose :meth:`pose_failure` passed (for the tool as
+        it is or turned half a turn), else None."""
+        return self._q.get(_pose_key(T_world_tcp))
 
     def _evidence(self, part: str, what: str, T: np.ndarray, dist: float) -> ArmError:
         """The failure of a pose within reach that no IK seed solved (every branch tried)."""

@@ -312,6 +312,7 @@ class ArmCollisionError(ArmError):
             return f"{names[body]} ({body})" if body in names else body
 
         listed = "; ".join(f"{said(p.a)} hits {said(p.b)}" for p in self.pairs[:3])
+        self.listed = listed
         super().__init__(f"during the {phase}: {listed}", step, part, phase, T_world_tcp)
 
     def evidence(self) -> dict[str, Any]:

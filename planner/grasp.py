@@ -298,6 +298,7 @@ def iter_grasps(
     # (lower bound, serial, frame, u, v, hint, cost without the hold term)
     todo: list[tuple[float, int, int, float, float, bool, float]] = []
     rel = P - com
+    hold_lbs: dict[float, float] = {}  # hold term lower bound per lever (few distinct ones)
     for c in closing_axes(surface, hint):
         is_hint_c = hint_c is not None and abs(float(np.dot(c, hint_c))) > 0.999
         a0 = _perpendicular(c, down_s)
@@ -376,18 +377,30 @@ def iter_grasps(
                         v = (lead_limit_m - _STOP_GAP_M - reach - u * float(x @ ins)) / a_ins
                         if v_lo <= v <= v_hi:
                             centres.append((u, round(v, 9)))
+            # the lead test per centre: (u x + v a) . ins = u (x . ins) + v (a . ins) in
+            # Python floats, within rounding of numpy's dot, which decides near the limit
+            lead = reach is not None and lead_limit_m is not None
+            if lead:
+                x_ins, a_ins = float(x @ ins), float(a @ ins)
             for u, v in centres:
-                if any(k + u * xz + v * az < 0.0 for xz, az, k in floors):
+                if floors and any(k + u * xz + v * az < 0.0 for xz, az, k in floors):
                     if stats is not None:
                         stats["below_table"] = stats.get("below_table", 0) + 1
                     continue
                 known = base
-                if (reach is not None and lead_limit_m is not None
-                        and float((u * x + v * a) @ ins) + reach > lead_limit_m):
-                    known += 1.0
+                if lead:
+                    # decided by the scalar sum unless within rounding of the limit; there
+                    # numpy's own dot product decides, as it always did
+                    over = u * x_ins + v * a_ins + reach - lead_limit_m
+                    if over > 1e-12 or (over > -1e-12 and float((u * x + v * a) @ ins) + reach
+                                        > lead_limit_m):
+                        known += 1.0
                 # the hold term (below) is at least this, whatever the patches
                 lever_lb = math.hypot(max(0.0, abs(u) - W / 2), max(0.0, abs(v) - L / 2))
-                hold_lb = hold_term(1.0, hold_lower_bound(lever_lb, W, L, accel))
+                hold_lb = hold_lbs.get(lever_lb)
+                if hold_lb is None:
+                    hold_lb = hold_lbs[lever_lb] = hold_term(
+                        1.0, hold_lower_bound(lever_lb, W, L, accel))
                 todo.append((known + hold_lb, len(todo), fi, u, v, is_hint, known))
     todo.sort(key=lambda t: (t[0], t[1]))
     heap: list[tuple[float, int, tuple[Any, ...], bool]] = []

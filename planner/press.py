@@ -232,7 +232,7 @@ def press_step(step: Step, op: PressOperation, T_world_seated: np.ndarray,
     gripper's trajectory ends at the hand-over pose for a press operation) and, for a press
     operation, the trajectory's last (open) phase lengthened by the ram's stroke
     (stroke / ``ram_speed_m_s`` + ``PRESS_SETTLE_S``) so that the step lasts until the part is
-    home."""
+    home; with the cell's arm, the arm holds its last joint angles over that time."""
     if op.by != "press" or step.trajectory is None:
         return replace(step, press=op)
     tr = step.trajectory
@@ -243,7 +243,11 @@ def press_step(step: Step, op: PressOperation, T_world_seated: np.ndarray,
                       T_world_gripper=np.concatenate([tr.T_world_gripper, tr.T_world_gripper[-1:]]),
                       clamp_force_N=np.append(tr.clamp_force_N, 0.0),
                       phases=(*tr.phases[:-1], PhaseSpan(last.name, last.t_start_s, end)))
-    return replace(step, press=op, trajectory=traj, T_world_final=np.asarray(T_world_seated),
+    # the arm holds its last pose (the gripper open beside the part) while the ram seats it
+    arm = None if step.arm is None else replace(
+        step.arm, q_rad=np.concatenate([step.arm.q_rad, step.arm.q_rad[-1:]]))
+    return replace(step, press=op, trajectory=traj, arm=arm,
+                   T_world_final=np.asarray(T_world_seated),
                    notes=(*step.notes, f"press operation: the robot leaves the part on the mouth, "
                           f"the press seats it over {op.stroke_m * 1e3:.2f} mm at "
                           f"{ram_speed_m_s * 1e3:.0f} mm/s (needs {op.force_N[0]:.4g}-"

@@ -110,6 +110,11 @@ class SequenceSettings:
     arm_reach : bool
         With an arm in the cell, screen the screened grasps' key TCP poses for the arm's
         reach and joint limits too (default True; only with ``gripper_access``).
+    arm_collisions : bool
+        With ``arm_reach``, also check the arm's links at each screened grasp's pre-insertion
+        and seated poses against the table and the other parts (default True): an order
+        whose step needs a link where a placed part stands ranks as ``unreachable``, with the
+        colliding pair in its reason.
     top_k : int
         Number of ranked sequences to return.
     max_states : int
@@ -139,6 +144,7 @@ class SequenceSettings:
     unreachable_s: float = 600.0
     gripper_access: bool = True
     arm_reach: bool = True
+    arm_collisions: bool = True
     top_k: int = 5
     max_states: int = 20_000
     beam_width: int = 64
@@ -408,7 +414,8 @@ def plan_sequence(product: Product, oracle: GeometryOracle | None = None,
     timings["blocking"] = t1 - t0
     graph = derive_precedence(product, table)
     access = GripperAccess(product, getattr(oracle, "geometry", None),
-                           AccessSettings(arm_reach=settings.arm_reach)) \
+                           AccessSettings(arm_reach=settings.arm_reach,
+                                          arm_collisions=settings.arm_collisions)) \
         if settings.gripper_access else None
     c = _Compiled(product, table, graph, settings, access)
     t2 = time.perf_counter()

@@ -10,6 +10,7 @@ that differ only in the order of identical parts are collapsed (:func:`identical
 from __future__ import annotations
 
 import heapq
+import itertools
 import math
 from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
@@ -185,13 +186,18 @@ class _Compiled:
                 return -1
             (i,) = required
             return i if i in free else -1
-        for i in self.head[p]:
+        # the preferred free direction, unless the gripper or the arm cannot do the step
+        # along it in this partial assembly and another free direction can (e.g. a drawer
+        # the arm reaches through the cabinet's front but not from above): the order's step
+        # then goes that way, as the motion planner will plan it
+        first = -1
+        for i in itertools.chain(self.head[p], self.rest[p]):
             if i in free:
-                return i
-        for i in self.rest[p]:
-            if i in free:
-                return i
-        return -1  # pragma: no cover - rest lists every usable direction
+                if first < 0:
+                    first = i
+                if self.access is None or self.reachable(p, i, done):
+                    return i
+        return first
 
     def successors(self, done: int) -> list[tuple[int, int]]:
         out = []
@@ -220,13 +226,10 @@ class _Compiled:
     def _access(self, p: int, d: int) -> Any:
         name = self.names[p]
         ins = self.table.directions[name][d].insertion
-        pre = self.product.process.approach_distance_m + max(
-            (self.product.feature(m.pin_part, m.pin_feature).length_m for m in self.product.mates
-             if name in (m.pin_part, m.hole_part)), default=0.0)
         required = frozenset(self.bits(self.pred[p]))
         if self.access is None:
             raise ValueError("gripper access is off (SequenceSettings.gripper_access)")
-        return self.access.access(name, ins, pre, required)
+        return self.access.access(name, ins, None, required)  # the planner's start
 
     def reachable(self, p: int, d: int, done: int) -> bool:
         """Whether some screened grasp of part p (inserted along direction d) is free of
