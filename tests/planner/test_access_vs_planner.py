@@ -4,13 +4,15 @@ compared on the one order where they disagreed (issue 18).
 Measured (this file's tests): the screening looks at the best 200 grasp candidates and stops
 after 24 in a row without a new minimal set; every grasp it keeps meets the cover, so it ranks
 the order unreachable. The planner, with its budget of 400 candidates plus 1600 whose fingers
-reach below the table, finds a pinch of the collar's outer end, the pads on a 3.4 mm strip of
-its 8 mm flank at 0.84 N per finger, and BALANCED inserts it (slow test below): here the
-planner is right and the screening wrong. Given the planner's budget the screening finds it
-too (1331 candidates examined, 1186 of them below the table), so the disagreement is the
-screening's budget, not its geometry.
+reach below the table, finds a pinch of the collar's outer end: the pads on a 2.05 mm strip of
+its 8 mm flank at 1.72 N per finger (the plan of this order, with the cell's arm). Given the
+planner's budget the screening finds a free grasp too (1331 candidates examined, 1186 of them
+below the table), so the geometric disagreement is the screening's budget. But BALANCED does
+not insert the planner's grasp (slow test below, a strict xfail): the collar turns about 3 deg
+in the pads during the transfer with nothing touching it and jams short. So in practice the
+screening's 'unreachable' is the right answer for this order, for a reason it does not state.
 
-Not changed, because of what the same order does with the cell's arm: `asmplan plan
+The screening's budget is kept, because of what the same order does: `asmplan plan
 examples/gear_unit.yaml --sequence base,bearing_block,shaft,wheel,post_1,post_2,cover,collar`
 plans the collar on a 2.05 mm strip at 1.72 N with a joint-space transfer (the arm cannot
 follow the Cartesian one), and `asmplan simulate` at BALANCED then fails it: the collar turns
@@ -73,8 +75,8 @@ def test_the_planner_grasps_it_by_a_2_mm_strip_that_the_screening_finds_with_its
     product, geometry = gear_unit
     step = cover_then_collar.step("collar")
     assert cover_then_collar.sequence[-1] == "collar" and step.kind == "insert"
-    # the pads on a strip of the 8 mm flank (3.4 mm here, 2.05 mm in `asmplan plan`'s plan
-    # with the arm), across the collar's 20 mm, about 1 N per finger
+    # the pads on a 2.05 mm strip of the 8 mm flank, across the collar's 20 mm, about
+    # 1.7 N per finger
     assert step.grasp.width_m == pytest.approx(20e-3, abs=1e-4)
     assert step.clamp.pad_width_m < 3.5e-3
     assert 0.5 < step.clamp.commanded_N < 2.0
@@ -85,9 +87,15 @@ def test_the_planner_grasps_it_by_a_2_mm_strip_that_the_screening_finds_with_its
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "measured (fresh-clone CI at a6bb7b9, and on the branch that wrote this test after its "
+    "rebase): the planner's 2.05 mm strip pinch at 1.72 N per finger lets the collar turn "
+    "3.24 deg in the pads during the transfer; it jams at 9.455 mm of 10 mm, 0.206 mm off. "
+    "The hold criterion credits the strip's torsion, PyBullet's pad contact on a narrow strip "
+    "does not deliver it (as the gearbox shaft's head in tests/sim/test_gearbox_balanced.py)"))
 def test_the_planners_collar_grasp_after_the_cover_inserts_it_at_balanced(gear_unit,
                                                                           cover_then_collar):
-    """About 25 s CPU: the planner's strip pinch (no arm) holds and inserts the collar."""
+    """About 25 s CPU: the planner's strip pinch holds and inserts the collar (it does not)."""
     from asmplan.sim.fidelity import BALANCED
     from asmplan.sim.simulate import simulate_step
 
