@@ -302,7 +302,9 @@ class PinHole:
     # True: the pipeline's gripper (CoupledGripper: synchronised jaws, open phases at the
     # grasp's opening); False: floating jaws (GripperSpec(synchronised=False)), fully open in
     # the open phases: the scene the stored interference resolutions (sim/fidelity.py) were
-    # measured with, its pin held off-centre where a finger first touched it
+    # measured with, its pin held off-centre where a finger first touched it. With the
+    # coupled gripper BALANCED and ACCURATE keep every figure, FAST pushes its -0.2 mm
+    # interference 2.049 mm in (bound 2 mm): docs/physics.md, "The bench's PinHole scene"
     coupled_gripper: bool = False
 
 
