@@ -896,6 +896,13 @@ class BulletWorld:
         c = min(pts, key=_contact_distance)
         return max(0.0, -c[8] / self._S), int(c[2])
 
+    def set_friction_anchor(self, body: int, links: Sequence[int], on: bool) -> None:
+        """Switch PyBullet's friction anchors (``changeDynamics(frictionAnchor=...)``) on
+        or off for ``links`` of ``body``; contacts refreshed from the next step on follow."""
+        for link in links:
+            pybullet.changeDynamics(body, int(link), frictionAnchor=int(on),
+                                    physicsClientId=self.client_id)
+
     # ---------------------------------------------------------------- joints
     def disable_motors(self, body: int, joints: Sequence[int]) -> None:
         """Switch the default velocity motors of ``joints`` off (zero max force)."""

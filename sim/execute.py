@@ -232,7 +232,14 @@ def execute_step(
     placed_after = names.index("lower") if "lower" in names else len(names)
     wall0 = time.perf_counter()
     r = 0
+    carry_anchor = fid.carry_anchor and not fid.friction_anchor
+    anchored = False
     for i in range(n_steps):
+        if carry_anchor:  # anchors while clamped and carried, off before the set-down
+            want = not is_open[i] and not is_lower[i] and int(phase_idx[i]) < placed_after
+            if want != anchored:
+                world.set_friction_anchor(gripper.body, FINGER_LINKS, want)
+                anchored = want
         gripper.command_pose_pq(pos_cmd[i], quat_cmd[i])
         if is_open[i]:
             if mode_open is not True:

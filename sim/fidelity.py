@@ -117,18 +117,24 @@ class Fidelity:
         FAST: True. Without them a 50 g POM block held at 2.2x the Coulomb force crept
         1.1-5.9 mm down the pads over a 5-12 s FAST cycle (generated products); with them
         < 0.01 mm. The slip threshold against m (g + a) / (2 mu) is unchanged (-0.20 %) and
-        the seed clamp-force error falls (0.37 -> 0.16 mN). BALANCED: True. Without anchors
-        a part clamped while it still stands on its support (pads and table both holding it)
-        creeps in the pads at ~1 mrad/s about the closing axis: the fits bench's 6 mm pin
-        picked from the tray left the grip tilted 0.115 mrad (synchronisation ERP 0.5) or
-        -0.193 mrad (1.0), its tip 1.2 or 1.9 um off the TCP along the pad face, which
-        decided whether a pin 5 um off a 5 um fit stayed on the rim; with anchors the tip
-        stays within 0.01 um at both ERPs and the pin stays on the rim. (Measured before
-        the synchronised jaws: a part seated by the position-controlled gripper got the pads'
-        full friction as extra seating force, peg_in_hole 62 N against its 50 N limit; with
-        the synchronised jaws peg_in_hole's peak insertion force stays 0.0 N.) ACCURATE:
-        False (not re-measured). Parts never get anchors: on every body they also stick pins
-        in their holes.
+        the seed clamp-force error falls (0.37 -> 0.16 mN). BALANCED and ACCURATE: False;
+        their pads crept little without anchors, and with them a part seated by the
+        position-controlled gripper got the pads' full friction as extra seating force
+        (peg_in_hole at BALANCED: 62 N against its 50 N limit). Parts never get anchors: on
+        every body they also stick pins in their holes.
+    carry_anchor : bool
+        Friction anchors on the fingers only while the part is clamped and carried: switched
+        on when the pads start closing ("clamp") and off when "lower" begins, before the
+        part meets its mate or the table (:func:`asmplan.sim.execute.execute_step`); no
+        effect when ``friction_anchor`` is True. BALANCED: True. Without anchors a part
+        clamped while it still stands on its support (pads and tray both holding it) creeps
+        in the pads at ~1 mrad/s about the closing axis: the fits bench's 6 mm pin left the
+        grip tilted 0.115 mrad, its tip 1.2 um off the TCP along the pad face, and a pin 5 um
+        off a 5 um fit arrived 4.23 um off and went in (capture geometry: rim stop). Anchors
+        on for the whole step (as FAST) hold it as picked but pass the palm's push on to the
+        set-down (a 1 m bar met the table with 56.7 N against its 42.4 N limit); switched off
+        at "lower" the set-down and insertion contacts are those of main's BALANCED.
+        ACCURATE: False (not measured).
     bullet_units_per_m : float
         Bullet length units per metre (:mod:`asmplan.sim.bullet` converts at its boundary).
         Bullet's collision code has absolute tolerances made for metre-sized bodies: GJK
@@ -182,6 +188,7 @@ class Fidelity:
     interference_resolution_m: float
     dynamic_partners: bool = True
     friction_anchor: bool = False
+    carry_anchor: bool = False
     bullet_units_per_m: float = 1000.0
     constraint_solver: str = "sequential_impulse"
     rest_window_s: float = 0.0
@@ -278,7 +285,7 @@ BALANCED = Fidelity(
     collision_margin_m=0.0,
     geometry_lod="convex",
     record_every_steps=4,
-    friction_anchor=True,
+    carry_anchor=True,
     min_resolvable_clearance_m=4e-6,
     interference_resolution_m=0.05e-3,
     rest_window_s=0.1,

@@ -204,6 +204,6 @@ def test_fast_pads_hold_a_light_low_friction_block_without_creep():
         held = record.phase_mask("translate")
         creep[anchor] = record.slip_m[held].max() - record.slip_m[held].min()
         assert not outcome.dropped and not outcome.nan_detected
-    assert FAST.friction_anchor and BALANCED.friction_anchor
+    assert FAST.friction_anchor and not BALANCED.friction_anchor
     assert creep[True] < 10e-6  # measured 2e-11 m
     assert creep[False] > 1e-3  # measured 3.1 mm: why FAST has the anchors

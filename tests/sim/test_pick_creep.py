@@ -1,7 +1,8 @@
 """A part clamped while it still stands on its support must leave the grip as it was picked.
 
 Between the pads' touch and the lift the fits bench's 6 mm pin is held by the pads and by
-the tray at once. Without friction anchors on the pads Bullet's velocity-level friction let
+the tray at once. Without friction anchors on the pads (Fidelity.carry_anchor: on from the clamp until
+"lower" begins) Bullet's velocity-level friction let
 it creep about the closing axis at ~1 mrad/s over the 0.5 s clamp and hold: it left the grip
 tilted 0.115 mrad (synchronisation ERP 0.5) or -0.193 mrad (ERP 1.0), its tip 1.2 / 1.9 um
 off the TCP along the pad face. With the pin 5 um off a 5 um fit (capture radius 2.5 um)
@@ -44,7 +45,7 @@ def fit_plan():
 
 def _insert(fit_plan, anchors: bool):
     product, planned, k = fit_plan
-    fid = dataclasses.replace(BALANCED, friction_anchor=anchors)
+    fid = dataclasses.replace(BALANCED, carry_anchor=anchors)
     res = simulate_plan(planned.plan, product, planned.geometry, fid, steps=[k], workers=1,
                         pose_error=PoseError((C_M, 0.0), (0.0, 0.0)))
     step = res.steps[0]
@@ -56,10 +57,10 @@ def _insert(fit_plan, anchors: bool):
 
 
 def test_a_pin_picked_from_the_tray_arrives_as_picked_and_stops_on_the_rim(fit_plan):
-    """BALANCED (anchors on): the pin's axis at the start of the insertion is parallel to the
+    """BALANCED (anchors on the pads from the clamp to the start of "lower"): the pin's axis at the start of the insertion is parallel to the
     TCP's within 0.01 mrad and its centre on the TCP within 0.1 um (measured 0.0002 mrad,
     0.01 um), so the robot's 5 um error is the pin's: twice the capture radius, on the rim."""
-    assert BALANCED.friction_anchor
+    assert BALANCED.carry_anchor and not BALANCED.friction_anchor
     outcome, T = _insert(fit_plan, anchors=True)
     tilt_rad = float(np.hypot(T[0, 2], T[1, 2]))
     assert tilt_rad < 1e-5
