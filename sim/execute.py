@@ -135,6 +135,7 @@ def execute_step(
     before_step: Callable[[int], None] | None = None,
     insertion_length_m: float | None = None,
     guard: SceneGuard | None = None,
+    carry_anchor: bool = False,
 ) -> tuple[StepRecord, StepOutcome]:
     """Drive the gripper along ``trajectory`` and judge the step.
 
@@ -167,6 +168,10 @@ def execute_step(
         checked by :class:`~asmplan.sim.guard.SceneWatch`): a dynamic body (other than the
         gripper) beyond them ends the step at that record row as ``fell`` or ``unstable``;
         the record keeps the rows before it.
+    carry_anchor : bool
+        Friction anchors on the fingers from the start of the clamp until "lower" begins
+        (the pipeline passes :attr:`~asmplan.sim.fidelity.Fidelity.carry_anchor`); no effect
+        when the world's fidelity has ``friction_anchor`` (anchors throughout).
 
     Returns
     -------
@@ -232,7 +237,7 @@ def execute_step(
     placed_after = names.index("lower") if "lower" in names else len(names)
     wall0 = time.perf_counter()
     r = 0
-    carry_anchor = fid.carry_anchor and not fid.friction_anchor
+    carry_anchor = carry_anchor and not fid.friction_anchor
     anchored = False
     for i in range(n_steps):
         if carry_anchor:  # anchors while clamped and carried, off before the set-down

@@ -125,8 +125,10 @@ class Fidelity:
     carry_anchor : bool
         Friction anchors on the fingers only while the part is clamped and carried: switched
         on when the pads start closing ("clamp") and off when "lower" begins, before the
-        part meets its mate or the table (:func:`asmplan.sim.execute.execute_step`); no
-        effect when ``friction_anchor`` is True. BALANCED: True. Without anchors a part
+        part meets its mate or the table. The pipeline (:func:`asmplan.sim.simulate.simulate_step`)
+        passes it to :func:`asmplan.sim.execute.execute_step` (``carry_anchor``); scenes that
+        call ``execute_step`` themselves (the bench's PinHole) choose. No effect when
+        ``friction_anchor`` is True. BALANCED: True. Without anchors a part
         clamped while it still stands on its support (pads and tray both holding it) creeps
         in the pads at ~1 mrad/s about the closing axis: the fits bench's 6 mm pin left the
         grip tilted 0.115 mrad, its tip 1.2 um off the TCP along the pad face, and a pin 5 um

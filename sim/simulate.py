@@ -226,7 +226,7 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
                                        warnings=warns,
                                        before_step=None if press is None else press.before_step,
                                        insertion_length_m=step.insertion_length_m or None,
-                                       guard=guard)
+                                       guard=guard, carry_anchor=fidelity.carry_anchor)
     t3 = time.perf_counter()
     table = criteria_table(outcome, crit, step.insertion_direction is not None)
     return StepResult(index, step.part, step.kind, outcome, record, scene.summary(), warns,
