@@ -239,9 +239,10 @@ def execute_step(
     r = 0
     carry_anchor = carry_anchor and not fid.friction_anchor
     anchored = False
+    set_down = False  # the part touched something but the fingers in "lower"
     for i in range(n_steps):
-        if carry_anchor:  # anchors while clamped and carried, off before the set-down
-            want = not is_open[i] and not is_lower[i] and int(phase_idx[i]) < placed_after
+        if carry_anchor:  # anchors while clamped and carried, off at the set-down contact
+            want = not is_open[i] and not set_down and int(phase_idx[i]) <= placed_after
             if want != anchored:
                 world.set_friction_anchor(gripper.body, FINGER_LINKS, want)
                 anchored = want
@@ -263,6 +264,8 @@ def execute_step(
             if is_lower[i]:
                 con = world.contacts(part_body)
                 is_finger = (con.body_b == gripper.body) & _is_finger_link(con.link_b)
+                set_down = set_down or bool(np.any((con.body_b != gripper.body)
+                                                   & (con.normal_force_N > 0.0)))
                 peak_insert_between = max(peak_insert_between, float(
                     np.linalg.norm(con.select(~is_finger).force_on_a_N())))
                 pen_between = max(pen_between, con.max_penetration_m())
@@ -288,6 +291,8 @@ def execute_step(
         external = others.force_on_a_N()
         if is_lower[i] and axis is not None:
             lower_contacts[r] = others
+        if is_lower[i] and bool(np.any((con.body_b != gripper.body) & (con.normal_force_N > 0.0))):
+            set_down = True
         v, w = world.velocity(part_body)
         ke = world.kinetic_energy_J(part_body, (v, w), T_part)
         T_grip = _finger_frame(T_tcp, travel)
