@@ -123,20 +123,22 @@ class Fidelity:
         (peg_in_hole at BALANCED: 62 N against its 50 N limit). Parts never get anchors: on
         every body they also stick pins in their holes.
     carry_anchor : bool
-        Friction anchors on the fingers only while the part is clamped and carried: switched
-        on when the pads start closing ("clamp") and off when "lower" begins, before the
-        part meets its mate or the table. The pipeline (:func:`asmplan.sim.simulate.simulate_step`)
-        passes it to :func:`asmplan.sim.execute.execute_step` (``carry_anchor``); scenes that
-        call ``execute_step`` themselves (the bench's PinHole) choose. No effect when
-        ``friction_anchor`` is True. BALANCED: True. Without anchors a part
-        clamped while it still stands on its support (pads and tray both holding it) creeps
-        in the pads at ~1 mrad/s about the closing axis: the fits bench's 6 mm pin left the
-        grip tilted 0.115 mrad, its tip 1.2 um off the TCP along the pad face, and a pin 5 um
-        off a 5 um fit arrived 4.23 um off and went in (capture geometry: rim stop). Anchors
-        on for the whole step (as FAST) hold it as picked but pass the palm's push on to the
-        set-down (a 1 m bar met the table with 56.7 N against its 42.4 N limit); switched off
-        at "lower" the set-down and insertion contacts are those of main's BALANCED.
-        ACCURATE: False (not measured).
+        Friction anchors on the fingers only while the part is clamped and carried: on when
+        "clamp" begins, off at the part's first contact with a body other than the gripper
+        in "lower" (its set-down or insertion contact). The pipeline
+        (:func:`asmplan.sim.simulate.simulate_step`) passes it to
+        :func:`asmplan.sim.execute.execute_step` (``carry_anchor``); scenes that call
+        ``execute_step`` themselves (the bench's PinHole) choose. No effect when
+        ``friction_anchor`` is True. BALANCED: True. Without anchors a part clamped while it
+        still stands on its support (pads and tray both holding it) creeps in the pads at
+        ~1 mrad/s about the closing axis: the fits bench's 6 mm pin left the grip tilted
+        0.115 mrad, its tip 1.2 um off the TCP along the pad face, and a pin 5 um off a 5 um
+        fit arrived 4.23 um off and went in (capture geometry: rim stop); with them it
+        arrives within 0.0002 mrad and 0.01 um and stops on the rim. Anchors for the whole
+        step pass the palm's push on at the set-down (a 1 m bar met the table with 56.7 N
+        against its 42.4 N limit); switched off when "lower" begins the pneumatic piston rod
+        crept 573 um / 13.6 mrad in the pads in free air and jammed. ACCURATE: False (not
+        measured).
     bullet_units_per_m : float
         Bullet length units per metre (:mod:`asmplan.sim.bullet` converts at its boundary).
         Bullet's collision code has absolute tolerances made for metre-sized bodies: GJK

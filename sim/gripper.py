@@ -111,8 +111,9 @@ class GripperSpec:
         (held by its end, 8.4 N) jams in the bearing block (tilt 0.24 deg at 21 mm, slips
         4.4 mm in the pads); at 0.5 both pass (wheel 0.023 mm, shaft 0.099 mm; floating jaws
         at 6de422a: 0.023 / 0.011 mm). Those were measured without friction anchors on the
-        pads; the window was the pads' creep, not the coupling: with BALANCED's anchors
-        (:attr:`~asmplan.sim.fidelity.Fidelity.friction_anchor`) gear_unit succeeds at
+        pads; the window was the pads' creep, not the coupling: with anchors on the pads
+        (measured for the whole step; BALANCED now has them while the part is carried,
+        :attr:`~asmplan.sim.fidelity.Fidelity.carry_anchor`) gear_unit succeeds at
         BALANCED at 0.5 and at 1.0 (wheel 9.2 um / 0.12 mrad off at 1.0), and at either value
         the finger travels stay equal within 0.2 um through a rim contact. 0.5 is kept.
     """
