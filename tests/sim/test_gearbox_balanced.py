@@ -29,7 +29,9 @@ balanced -o OUT`, results.json per step), with the cause of each failure:
   with the 1.5 kg gripper estimate, 1.9 kg now; same grasp and 36.2 N clamp). A contact probe
   finds the gripper's palm (base link) touching the cover through the lift and the transfer
   (and 26 N of external force on the cover there), gone by the seating; whether the palm's
-  load is what reaches 66.8 N was not established: xfail.
+  load is what reaches 66.8 N was not established. Since BALANCED's carry anchors (the pads
+  anchored from the clamp to the set-down contact, sim/fidelity.py carry_anchor) the cover
+  step succeeds: passes.
 """
 
 from __future__ import annotations
@@ -63,8 +65,7 @@ def _xfail(reason: str):
 @pytest.mark.parametrize("part, kind", [
     ("dowel_1", "insert"), ("spacer", "place"), ("gear", "place"), ("bearing_1", "insert"),
     ("shaft", "regrasp"),
-    pytest.param("cover", "insert", marks=_xfail(
-        "peak seating contact 66.8 N > the process's 60 N limit (43.1 N with a 1.5 kg gripper)")),
+    ("cover", "insert"),
     pytest.param("shaft", "insert", marks=_xfail(
         "slips 1.84 mm / 3.6 deg in the pads during the transfer at 289 N: PyBullet's pad "
         "contact on the round head is two points with 279 N and 4 N at hold, not a line")),
