@@ -380,8 +380,10 @@ def iter_grasps(
             # the lead test per centre: (u x + v a) . ins = u (x . ins) + v (a . ins) in
             # Python floats, within rounding of numpy's dot, which decides near the limit
             lead = reach is not None and lead_limit_m is not None
-            if lead:
+            reach_lead = limit_lead = 0.0
+            if reach is not None and lead_limit_m is not None:
                 x_ins, a_ins = float(x @ ins), float(a @ ins)
+                reach_lead, limit_lead = reach, lead_limit_m
             for u, v in centres:
                 if floors and any(k + u * xz + v * az < 0.0 for xz, az, k in floors):
                     if stats is not None:
@@ -391,9 +393,9 @@ def iter_grasps(
                 if lead:
                     # decided by the scalar sum unless within rounding of the limit; there
                     # numpy's own dot product decides, as it always did
-                    over = u * x_ins + v * a_ins + reach - lead_limit_m
-                    if over > 1e-12 or (over > -1e-12 and float((u * x + v * a) @ ins) + reach
-                                        > lead_limit_m):
+                    over = u * x_ins + v * a_ins + reach_lead - limit_lead
+                    if over > 1e-12 or (over > -1e-12 and float((u * x + v * a) @ ins)
+                                        + reach_lead > limit_lead):
                         known += 1.0
                 # the hold term (below) is at least this, whatever the patches
                 lever_lb = math.hypot(max(0.0, abs(u) - W / 2), max(0.0, abs(v) - L / 2))
