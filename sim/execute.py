@@ -60,6 +60,11 @@ def _is_finger_link(links: np.ndarray) -> np.ndarray:
     return (links == FINGER_LINKS[0]) | (links == FINGER_LINKS[1])
 
 
+def _touches_other_than(con: Contacts, gripper_body: int) -> bool:
+    """Whether the part presses on a body other than the gripper (its set-down contact)."""
+    return bool(np.any((con.body_b != gripper_body) & (con.normal_force_N > 0.0)))
+
+
 def _finger_frame(T_world_tcp: np.ndarray, travel: np.ndarray) -> np.ndarray:
     T = T_world_tcp.copy()
     y_mid = 0.5 * (travel[1] - travel[0])
@@ -169,9 +174,10 @@ def execute_step(
         gripper) beyond them ends the step at that record row as ``fell`` or ``unstable``;
         the record keeps the rows before it.
     carry_anchor : bool
-        Friction anchors on the fingers from the start of the clamp until "lower" begins
-        (the pipeline passes :attr:`~asmplan.sim.fidelity.Fidelity.carry_anchor`); no effect
-        when the world's fidelity has ``friction_anchor`` (anchors throughout).
+        Friction anchors on the fingers from the start of the clamp until the part's first
+        contact with a body other than the gripper in "lower" (the pipeline passes
+        :attr:`~asmplan.sim.fidelity.Fidelity.carry_anchor`); no effect when the world's
+        fidelity has ``friction_anchor`` (anchors throughout).
 
     Returns
     -------
@@ -264,8 +270,8 @@ def execute_step(
             if is_lower[i]:
                 con = world.contacts(part_body)
                 is_finger = (con.body_b == gripper.body) & _is_finger_link(con.link_b)
-                set_down = set_down or bool(np.any((con.body_b != gripper.body)
-                                                   & (con.normal_force_N > 0.0)))
+                if carry_anchor and not set_down:
+                    set_down = _touches_other_than(con, gripper.body)
                 peak_insert_between = max(peak_insert_between, float(
                     np.linalg.norm(con.select(~is_finger).force_on_a_N())))
                 pen_between = max(pen_between, con.max_penetration_m())
@@ -291,8 +297,8 @@ def execute_step(
         external = others.force_on_a_N()
         if is_lower[i] and axis is not None:
             lower_contacts[r] = others
-        if is_lower[i] and bool(np.any((con.body_b != gripper.body) & (con.normal_force_N > 0.0))):
-            set_down = True
+        if carry_anchor and not set_down and is_lower[i]:
+            set_down = _touches_other_than(con, gripper.body)
         v, w = world.velocity(part_body)
         ke = world.kinetic_energy_J(part_body, (v, w), T_part)
         T_grip = _finger_frame(T_tcp, travel)
