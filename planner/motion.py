@@ -296,6 +296,7 @@ class MotionPlanner:
             candidates = iter([grasp])
         rejected = Rejections()
         failures: list[_GraspFailed] = []
+        attempts = 0  # grasps whose motion was attempted
         ompl_s = check_s = grasp_s = 0.0
         free = collision_free(
             candidates, lambda g: self._grasp_collisions(g, part, T_start, T_final, obstacles,
@@ -313,7 +314,13 @@ class MotionPlanner:
                     step = replace(step, start_note=start_note)
             except _GraspFailed as f:
                 failures.append(f)
-                if len(failures) >= settings.max_grasps:
+                # a grasp whose grip cannot hold the step's load (its lever, the insertion or
+                # press hand-over resistance) is rejected before any motion is planned: it
+                # does not use up one of the ``max_grasps`` full attempts (the bearing unit's
+                # shaft: six grasps far from its centre of mass came first, the one over it
+                # seventh)
+                attempts += not isinstance(f.error, GripInfeasibleError)
+                if attempts >= settings.max_grasps:
                     break
                 t_g = time.perf_counter()
                 continue

@@ -224,7 +224,8 @@ class PlannerSettings:
         Distance the open gripper travels along its approach axis onto the part, and back
         off after release, m.
     max_grasps : int
-        Grasps whose full motion is attempted per step before giving up.
+        Grasps whose full motion is attempted per step before giving up (a grasp whose grip
+        cannot hold the step's load is rejected before its motion and is not counted).
     max_grasp_candidates : int
         Ranked grasp candidates examined (finger collisions) per step before giving up.
     surface_samples : int
