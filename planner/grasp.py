@@ -295,8 +295,8 @@ def iter_grasps(
                        if load is not None else (1.0, 5.0, 2.0))
     downs = tuple(d for d in (down_s, down_f) if d is not None)
     frames: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]] = []
-    # (lower bound, serial, frame, u, v, hint, cost without the hold term)
-    todo: list[tuple[float, int, int, float, float, bool, float]] = []
+    order: list[int] = []
+    chunks: list[tuple[int, np.ndarray, np.ndarray, bool, np.ndarray]] = []
     rel = P - com
     hold_lbs: dict[float, float] = {}  # hold term lower bound per lever (few distinct ones)
     for c in closing_axes(surface, hint):
@@ -378,33 +378,54 @@ def iter_grasps(
                         if v_lo <= v <= v_hi:
                             centres.append((u, round(v, 9)))
             # the lead test per centre: (u x + v a) . ins = u (x . ins) + v (a . ins) in
-            # Python floats, within rounding of numpy's dot, which decides near the limit
-            lead = reach is not None and lead_limit_m is not None
-            reach_lead = limit_lead = 0.0
+            # float64 (the same operations, element by element, as Python floats), within
+            # rounding of numpy's dot, which decides near the limit
+            if not centres:
+                continue
+            cu = np.array([c_[0] for c_ in centres])
+            cv = np.array([c_[1] for c_ in centres])
+            keep = np.ones(len(centres), bool)
+            for xz, az, k in floors:
+                keep &= ~(k + cu * xz + cv * az < 0.0)
+            if stats is not None and not keep.all():
+                stats["below_table"] = stats.get("below_table", 0) + int((~keep).sum())
+            cu, cv = cu[keep], cv[keep]
+            known = np.full(len(cu), base)
             if reach is not None and lead_limit_m is not None:
                 x_ins, a_ins = float(x @ ins), float(a @ ins)
-                reach_lead, limit_lead = reach, lead_limit_m
-            for u, v in centres:
-                if floors and any(k + u * xz + v * az < 0.0 for xz, az, k in floors):
-                    if stats is not None:
-                        stats["below_table"] = stats.get("below_table", 0) + 1
-                    continue
-                known = base
-                if lead:
-                    # decided by the scalar sum unless within rounding of the limit; there
-                    # numpy's own dot product decides, as it always did
-                    over = u * x_ins + v * a_ins + reach_lead - limit_lead
-                    if over > 1e-12 or (over > -1e-12 and float((u * x + v * a) @ ins)
-                                        + reach_lead > limit_lead):
-                        known += 1.0
-                # the hold term (below) is at least this, whatever the patches
-                lever_lb = math.hypot(max(0.0, abs(u) - W / 2), max(0.0, abs(v) - L / 2))
-                hold_lb = hold_lbs.get(lever_lb)
-                if hold_lb is None:
-                    hold_lb = hold_lbs[lever_lb] = hold_term(
-                        1.0, hold_lower_bound(lever_lb, W, L, accel))
-                todo.append((known + hold_lb, len(todo), fi, u, v, is_hint, known))
-    todo.sort(key=lambda t: (t[0], t[1]))
+                over = cu * x_ins + cv * a_ins + reach - lead_limit_m
+                plus = over > 1e-12
+                for i in np.flatnonzero(~plus & (over > -1e-12)).tolist():
+                    u, v = float(cu[i]), float(cv[i])
+                    plus[i] = float((u * x + v * a) @ ins) + reach > lead_limit_m
+                known = np.where(plus, base + 1.0, base)
+            chunks.append((fi, cu, cv, is_hint, known))
+    # (lower bound, serial, frame, u, v, hint, cost without the hold term), best first: ties
+    # by generation order. The hold term (below) is at least a bound per distinct lever
+    # (math.hypot, as per candidate before: the offsets are few distinct values)
+    if chunks:
+        cu = np.concatenate([ch[1] for ch in chunks])
+        cv = np.concatenate([ch[2] for ch in chunks])
+        knowns_a = np.concatenate([ch[4] for ch in chunks])
+        au = np.maximum(0.0, np.abs(cu) - W / 2)
+        bv = np.maximum(0.0, np.abs(cv) - L / 2)
+        ua, ia = np.unique(au, return_inverse=True)
+        ub, ib = np.unique(bv, return_inverse=True)
+        keys, inv = np.unique(ia.reshape(-1) * len(ub) + ib.reshape(-1), return_inverse=True)
+        hold = np.empty(len(keys))
+        ual, ubl = ua.tolist(), ub.tolist()
+        for i, key in enumerate(keys.tolist()):
+            lever_lb = math.hypot(ual[key // len(ubl)], ubl[key % len(ubl)])
+            hold_lb = hold_lbs.get(lever_lb)
+            if hold_lb is None:
+                hold_lb = hold_lbs[lever_lb] = hold_term(
+                    1.0, hold_lower_bound(lever_lb, W, L, accel))
+            hold[i] = hold_lb
+        lbs = knowns_a + hold[inv.reshape(-1)]
+        fis = np.concatenate([np.full(len(ch[1]), ch[0]) for ch in chunks]).tolist()
+        hints = np.concatenate([np.full(len(ch[1]), ch[3]) for ch in chunks]).tolist()
+        us_, vs_, knowns, lbl = cu.tolist(), cv.tolist(), knowns_a.tolist(), lbs.tolist()
+        order = np.lexsort((np.arange(len(lbs)), lbs)).tolist()
     heap: list[tuple[float, int, tuple[Any, ...], bool]] = []
     strips: dict[tuple[int, float], tuple[_Strip, _Strip]] = {}
     sorted_frames: dict[int, _Frame] = {}
@@ -415,7 +436,9 @@ def iter_grasps(
                      "hint" if hinted else "antipodal", cost, req.torsion_radius_m,
                      req.lever_m, req.required_N if load is not None else None)
 
-    for lb, serial, fi, u, v, is_hint, known in todo:
+    for serial in order:  # lazily: the first few are all most steps need
+        lb, fi, u, v = lbl[serial], fis[serial], us_[serial], vs_[serial]
+        is_hint, known = hints[serial], knowns[serial]
         while heap and heap[0][0] <= lb:
             yield make(heapq.heappop(heap))
         x, c, a, XYZ, _ = frames[fi]
