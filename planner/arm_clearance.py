@@ -76,6 +76,12 @@ class _Groups:
     body_index: np.ndarray
 
 
+def _sorted_unique(a: np.ndarray) -> np.ndarray:
+    """``np.unique`` of small non-negative indices (the same sorted values), by counting:
+    called at every checked state, where np.unique's sort costs more than the count."""
+    return np.flatnonzero(np.bincount(a))
+
+
 def _skew_rows(w: np.ndarray) -> np.ndarray:
     """(18, 3): rows ``3 j .. 3 j + 2`` are the cross-product matrix of ``w[j]`` (6, 3)."""
     S = np.zeros((6, 3, 3))
@@ -349,7 +355,7 @@ class ArmClearance:
                 if u >= k1 or last == 0:
                     break
                 idx = np.flatnonzero(fresh)
-                groups = np.unique(of[idx])
+                groups = _sorted_unique(of[idx])
                 reach = self._advance(u, q, groups, of[idx], d[idx], cumJ, k1, tool_radius_m,
                                       plan)
                 until[idx] = reach[np.searchsorted(groups, of[idx])]
@@ -417,7 +423,7 @@ class ArmClearance:
         lin, ang = J[:3].T, J[3:].T  # (6, 3) per joint
         # the bounding spheres of the bodies (tool: the TCP, tool_radius_m)
         bi = plan.body_index[groups]
-        used = np.unique(bi)
+        used = _sorted_unique(bi)
         c = np.zeros((len(plan.unique), 3))
         e = np.zeros(len(plan.unique))
         for i in used:

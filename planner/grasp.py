@@ -178,7 +178,12 @@ def _geometric_axes(surface: GraspSurface, min_area_fraction: float) -> list[np.
     cands: list[np.ndarray] = []
     # large planar faces with an opposite face: cluster sample normals on a 0.02 grid
     n = surface.normals[: surface.points_m.shape[0]]
-    keys, counts = np.unique(np.round(n / 0.02).astype(int), axis=0, return_counts=True)
+    # the rows (unit normals / 0.02: within +-50) as one integer each, in the same
+    # lexicographic order as np.unique(..., axis=0) gives them, without its row sort
+    cells = np.round(n / 0.02).astype(np.int64) + 64
+    codes, counts = np.unique((cells[:, 0] << 14) | (cells[:, 1] << 7) | cells[:, 2],
+                              return_counts=True)
+    keys = np.stack([(codes >> 14) & 127, (codes >> 7) & 127, codes & 127], axis=1) - 64
     order = np.argsort(-counts, kind="stable")
     total = float(len(n))
     key_set = {tuple(k): c for k, c in zip(keys.tolist(), counts.tolist(), strict=True)}
