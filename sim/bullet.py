@@ -651,6 +651,25 @@ class BulletWorld:
         """Total mass of a body, kg (0 for static bodies)."""
         return self._bodies[body].mass_kg
 
+    def rigid_properties(self, body: int) -> tuple[float, np.ndarray, np.ndarray]:
+        """(mass kg, base inertial frame in the link frame (4, 4), inertia tensor about the
+        centre of mass in link-frame axes (3, 3) kg m^2) of a part body."""
+        info = self._bodies[body]
+        return info.mass_kg, info.T_link_inertial.copy(), np.array(info.inertia_kgm2, float)
+
+    def lateral_friction(self, body: int) -> float:
+        """The base link's Coulomb coefficient (Bullet combines a pair's as the product)."""
+        return float(pybullet.getDynamicsInfo(body, -1, physicsClientId=self.client_id)[1])
+
+    def set_collision_enabled(self, body_a: int, body_b: int, enabled: bool) -> None:
+        """Switch Bullet's contact between every link of two bodies on or off
+        (``setCollisionFilterPair``); e.g. while :mod:`asmplan.sim.feature_contact` models it."""
+        cid = self.client_id
+        for la in range(-1, self._bodies[body_a].n_links):
+            for lb in range(-1, self._bodies[body_b].n_links):
+                pybullet.setCollisionFilterPair(body_a, body_b, la, lb, int(enabled),
+                                                physicsClientId=cid)
+
     def contact_breaking_m(self, body: int, other: int | None = None) -> float:
         """Largest distance (m) at which Bullet creates or keeps a contact point between
         ``body`` and ``other`` (any body when None): the world's breaking fraction times the

@@ -1,0 +1,329 @@
+"""Exact contact geometry of a cylindrical fit: a (chamfered) pin against a (chamfered) bore in
+the face of a block, as the knowledge base declares them (no meshes, no margins).
+
+Used by :mod:`asmplan.sim.feature_contact`, which replaces Bullet's contact between a held pin
+and its hole during the insertion. No pybullet here.
+
+Geometry
+--------
+Both solids are bodies of revolution about their own axis, so the distance from a point to
+either is a distance in the point's meridian half-plane (radius rho from the axis, height z
+along it) to a polygon, the solid's profile:
+
+* The block (:class:`BoreFeature`, frame: origin at the mouth centre, z the outward normal of
+  the face): material where z <= 0 outside the bore: top face out to ``rim_radius_m``, a 45 deg
+  mouth chamfer of leg ``chamfer_m`` (radius R + ch at z = 0 to R at z = -ch), the wall down to
+  ``depth_m`` and, for a blind bore, its floor.
+* The pin (:class:`PinFeature`, frame: origin at the tip centre, s along the axis toward the
+  root): material where 0 <= s, inside radius r, its tip chamfer of leg ``chamfer_m`` (radius
+  r - ch at s = 0 to r at s = ch).
+
+Contacts between two such solids lie on their edges (circles): a pin edge (the tip circle, the
+chamfer's top circle, the seat circle of a shoulder) against the block's surface, or a block
+edge (the mouth circle, the chamfer's bottom circle) against the pin's surface. Each circle is
+sampled at :data:`CIRCLE_SAMPLES` angles, each local minimum of the signed distance below the
+search margin is refined by a parabola through its neighbours (angle error ~ (2 pi / N)^3: the
+distance is exact to < 0.01 um on a 10 mm pin), and a circle lying flat on a face (every sample
+within :data:`FLAT_TOLERANCE_M` of the least) gives up to :data:`MAX_POINTS_PER_CIRCLE` points
+spread around it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+CIRCLE_SAMPLES = 96
+"""Angles sampled per edge circle."""
+
+MAX_POINTS_PER_CIRCLE = 6
+"""Contact points kept per circle (a circle lying flat on a face gives that many, spread)."""
+
+FLAT_TOLERANCE_M = 0.2e-6
+"""Samples of one circle within this of its least distance count as one flat contact."""
+
+_FAR = 1.0  # m: "infinitely" far along a profile (the profiles are local)
+
+
+@dataclass(frozen=True)
+class PinFeature:
+    """A cylindrical pin on the held body, in that body's link frame.
+
+    Attributes
+    ----------
+    tip_m : (3,) float
+        Centre of the pin's leading end face, m.
+    axis_to_root : (3,) float
+        Unit vector from the tip toward the root (into the part).
+    radius_m : float
+    chamfer_m : float
+        45 deg tip chamfer leg, m (0: a sharp rim).
+    length_m : float
+        Tip to root, m.
+    seat_radius_m : float
+        Radius of the shoulder circle at the root that seats on the block's face, m (0: the
+        part does not seat there, e.g. a plain pin longer than its hole).
+    """
+
+    tip_m: np.ndarray
+    axis_to_root: np.ndarray
+    radius_m: float
+    chamfer_m: float
+    length_m: float
+    seat_radius_m: float = 0.0
+
+    def profile(self) -> np.ndarray:
+        """The pin's meridian profile polygon (rho, s), counter-clockwise, m."""
+        r, ch = self.radius_m, min(self.chamfer_m, 0.999 * self.radius_m)
+        pts = [(0.0, 0.0), (r - ch, 0.0)]
+        if ch > 0:
+            pts.append((r, ch))
+        pts += [(r, _FAR), (0.0, _FAR)]
+        return np.asarray(pts)
+
+
+@dataclass(frozen=True)
+class BoreFeature:
+    """A cylindrical bore in the face of a block, in the block body's link frame.
+
+    Attributes
+    ----------
+    mouth_m : (3,) float
+        Centre of the mouth, on the face, m.
+    axis_out : (3,) float
+        Unit outward normal of the face.
+    radius_m : float
+    chamfer_m : float
+        45 deg mouth chamfer leg, m.
+    depth_m : float
+        Mouth to floor (or to the far face for a through bore), m.
+    through : bool
+    rim_radius_m : float
+        How far from the axis the face is modelled (beyond it the block is not there), m.
+    """
+
+    mouth_m: np.ndarray
+    axis_out: np.ndarray
+    radius_m: float
+    chamfer_m: float
+    depth_m: float
+    through: bool
+    rim_radius_m: float
+
+    def profile(self) -> np.ndarray:
+        """The block's meridian profile polygon (rho, z) around the bore, m."""
+        R, ch, h, W = self.radius_m, self.chamfer_m, self.depth_m, self.rim_radius_m
+        pts = [(W, 0.0)]
+        if ch > 0:
+            pts += [(R + ch, 0.0), (R, -ch)]
+        else:
+            pts.append((R, 0.0))
+        if self.through:
+            pts += [(R, -h), (W, -h)]
+        else:
+            pts += [(R, -h), (0.0, -h), (0.0, -h - _FAR), (W, -h - _FAR)]
+        return np.asarray(pts)
+
+
+def frame_of(origin: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """A (4, 4) frame with ``origin`` and z along the unit ``axis`` (x, y any orthonormal)."""
+    z = np.asarray(axis, float) / np.linalg.norm(axis)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    T[:3, 3] = origin
+    return T
+
+
+def polygon_sdf(points: np.ndarray, polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Signed distance (n,) from 2-D ``points`` (n, 2) to a closed ``polygon`` (k, 2) (positive
+    outside), with the unit outward direction (n, 2) toward the nearest boundary point (away
+    from the material outside, toward the outside from within)."""
+    a = polygon
+    b = np.roll(polygon, -1, axis=0)
+    ab = b - a  # (k, 2)
+    ap = points[:, None, :] - a[None, :, :]  # (n, k, 2)
+    t = np.clip(np.einsum("nkj,kj->nk", ap, ab) / np.maximum(np.sum(ab * ab, axis=1), 1e-300),
+                0.0, 1.0)
+    nearest = a[None] + t[..., None] * ab[None]  # (n, k, 2)
+    diff = points[:, None, :] - nearest
+    dist = np.linalg.norm(diff, axis=2)
+    j = np.argmin(dist, axis=1)
+    idx = np.arange(points.shape[0])
+    d = dist[idx, j]
+    # inside: crossing number
+    py = points[:, 1][:, None]
+    px = points[:, 0][:, None]
+    cond = (a[None, :, 1] > py) != (b[None, :, 1] > py)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xint = a[None, :, 0] + (py - a[None, :, 1]) * ab[None, :, 0] / ab[None, :, 1]
+    inside = (np.sum(cond & (px < xint), axis=1) % 2) == 1
+    vec = diff[idx, j]
+    # the outward normal of the nearest segment (counter-clockwise: (dy, -dx))
+    seg = ab[j]
+    seg_n = np.column_stack([seg[:, 1], -seg[:, 0]])
+    seg_n /= np.maximum(np.linalg.norm(seg_n, axis=1, keepdims=True), 1e-300)
+    signed_area = 0.5 * np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1])
+    if signed_area < 0:
+        seg_n = -seg_n
+    out = np.where(d[:, None] > 1e-12, vec / np.maximum(d[:, None], 1e-300), seg_n)
+    out = np.where(inside[:, None], -out, out)
+    # on the exact boundary the segment's normal is the outward one
+    out = np.where((d[:, None] <= 1e-12), seg_n, out)
+    return np.where(inside, -d, d), out
+
+
+def _meridian(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rho, z) of frame points (n, 3) and their radial unit vectors (n, 3)."""
+    rho = np.hypot(points[:, 0], points[:, 1])
+    radial = np.zeros_like(points)
+    ok = rho > 1e-12
+    radial[ok, 0] = points[ok, 0] / rho[ok]
+    radial[ok, 1] = points[ok, 1] / rho[ok]
+    radial[~ok, 0] = 1.0
+    return rho, radial
+
+
+def revolved_sdf(points: np.ndarray, profile: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Signed distance (n,) from points (n, 3), in a solid of revolution's frame (axis z), to
+    the solid whose meridian is ``profile``; and the unit outward normal (n, 3) there."""
+    rho, radial = _meridian(points)
+    d, n2 = polygon_sdf(np.column_stack([rho, points[:, 2]]), profile)
+    normal = n2[:, :1] * radial
+    normal[:, 2] += n2[:, 1]
+    return d, normal
+
+
+@dataclass(frozen=True)
+class FitContact:
+    """Contact points between a pin and a bore, world frame.
+
+    ``normal`` points from the block into the pin (the direction the pin is pushed),
+    ``gap_m`` is the signed distance (negative: penetration), ``point_m`` the point on the
+    block's surface (pin edges: the pin's point moved back onto it)."""
+
+    point_m: np.ndarray
+    normal: np.ndarray
+    gap_m: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return int(self.gap_m.shape[0])
+
+
+def _circle(T: np.ndarray, radius: float, angles: np.ndarray) -> np.ndarray:
+    """World points of a circle of ``radius`` in the xy plane of frame ``T`` (4, 4)."""
+    return (T[:3, 3][None, :] + radius * (np.cos(angles)[:, None] * T[:3, 0][None, :]
+                                          + np.sin(angles)[:, None] * T[:3, 1][None, :]))
+
+
+def _refine(values: np.ndarray, margin_m: float) -> list[tuple[float, bool]]:
+    """Angles (rad, with a flag for refined minima) of the contact candidates of one sampled
+    circle: its local minima below ``margin_m`` (parabola-refined), or up to
+    :data:`MAX_POINTS_PER_CIRCLE` spread points of a flat circle."""
+    n = values.size
+    step = 2.0 * math.pi / n
+    lo = float(np.min(values))
+    if lo >= margin_m:
+        return []
+    near = np.flatnonzero(values <= lo + FLAT_TOLERANCE_M)
+    if near.size >= 3:
+        take = near[np.linspace(0, near.size - 1, min(MAX_POINTS_PER_CIRCLE, near.size)).round()
+                    .astype(int)]
+        return [(float(i) * step, False) for i in np.unique(take)]
+    prev, nxt = np.roll(values, 1), np.roll(values, -1)
+    minima = np.flatnonzero((values <= prev) & (values < nxt) & (values < margin_m))
+    minima = minima[np.argsort(values[minima])][:MAX_POINTS_PER_CIRCLE]
+    out = []
+    for i in minima:
+        y0, y1, y2 = values[(i - 1) % n], values[i], values[(i + 1) % n]
+        den = y0 - 2.0 * y1 + y2
+        shift = 0.5 * (y0 - y2) / den if den > 0 else 0.0
+        out.append(((float(i) + max(-0.5, min(0.5, shift))) * step, True))
+    return out
+
+
+class FitContactModel:
+    """Contact detection between one pin and one bore, both posed in the world.
+
+    Parameters
+    ----------
+    pin, bore : PinFeature, BoreFeature
+        In their bodies' link frames.
+    """
+
+    def __init__(self, pin: PinFeature, bore: BoreFeature) -> None:
+        self.pin = pin
+        self.bore = bore
+        self._T_link_pin = frame_of(pin.tip_m, pin.axis_to_root)
+        self._T_link_bore = frame_of(bore.mouth_m, bore.axis_out)
+        self._pin_profile = pin.profile()
+        self._bore_profile = bore.profile()
+        self._angles = np.linspace(0.0, 2.0 * math.pi, CIRCLE_SAMPLES, endpoint=False)
+        r, cp = pin.radius_m, min(pin.chamfer_m, 0.999 * pin.radius_m)
+        # pin edge circles: (height s along the axis, radius)
+        self._pin_circles = [(0.0, r - cp)] + ([(cp, r)] if cp > 0 else [])
+        if pin.seat_radius_m > 0:
+            self._pin_circles.append((pin.length_m, pin.seat_radius_m))
+        R, ch = bore.radius_m, bore.chamfer_m
+        self._bore_circles = [(0.0, R + ch)] + ([(-ch, R)] if ch > 0 else [])
+
+    def frames(self, T_world_pin_body: np.ndarray, T_world_bore_body: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """World frames of the pin (origin: tip, z toward the root) and the bore (origin:
+        mouth, z outward)."""
+        return T_world_pin_body @ self._T_link_pin, T_world_bore_body @ self._T_link_bore
+
+    def contacts(self, T_world_pin_body: np.ndarray, T_world_bore_body: np.ndarray,
+                 margin_m: float) -> FitContact:
+        """Contact points with a gap below ``margin_m`` (m) at these body poses."""
+        Tp, Tb = self.frames(T_world_pin_body, T_world_bore_body)
+        Tb_inv_R, Tb_p = Tb[:3, :3].T, Tb[:3, 3]
+        Tp_inv_R, Tp_p = Tp[:3, :3].T, Tp[:3, 3]
+        pts, nrm, gap = [], [], []
+
+        def pin_edge_vs_block(world_pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            local = (world_pts - Tb_p) @ Tb_inv_R.T
+            d, n = revolved_sdf(local, self._bore_profile)
+            return d, n @ Tb[:3, :3].T
+
+        def block_edge_vs_pin(world_pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            local = (world_pts - Tp_p) @ Tp_inv_R.T
+            d, n = revolved_sdf(local, self._pin_profile)
+            return d, -(n @ Tp[:3, :3].T)
+
+        for s, radius in self._pin_circles:
+            Tc = Tp.copy()
+            Tc[:3, 3] = Tp[:3, 3] + s * Tp[:3, 2]
+            self._circle_contacts(Tc, radius, margin_m, pin_edge_vs_block, True, pts, nrm, gap)
+        for z, radius in self._bore_circles:
+            Tc = Tb.copy()
+            Tc[:3, 3] = Tb[:3, 3] + z * Tb[:3, 2]
+            self._circle_contacts(Tc, radius, margin_m, block_edge_vs_pin, False, pts, nrm, gap)
+        if not gap:
+            return FitContact(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+        return FitContact(np.vstack(pts), np.vstack(nrm), np.concatenate(gap))
+
+    def _circle_contacts(self, Tc: np.ndarray, radius: float, margin_m: float, sdf,
+                         on_pin: bool, pts: list, nrm: list, gap: list) -> None:
+        world = _circle(Tc, radius, self._angles)
+        d, _ = sdf(world)
+        picks = _refine(d, margin_m)
+        if not picks:
+            return
+        angles = np.array([a for a, _ in picks])
+        p = _circle(Tc, radius, angles)
+        d2, n2 = sdf(p)
+        keep = d2 < margin_m
+        if not np.any(keep):
+            return
+        p, d2, n2 = p[keep], d2[keep], n2[keep]
+        if on_pin:  # the point on the block's surface
+            p = p + d2[:, None] * (-n2)
+        pts.append(p)
+        nrm.append(n2)
+        gap.append(d2)
