@@ -34,7 +34,9 @@ from asmplan.planner.trajectory import (
 )
 from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.execute import execute_step
+from asmplan.sim.feature_contact import FitPair, HeldFitContact
 from asmplan.sim.fidelity import Fidelity
+from asmplan.sim.fit_geometry import BoreFeature, FitContactModel, PinFeature
 from asmplan.sim.gripper import CoupledGripper, Gripper, GripperSpec
 from asmplan.sim.guard import SceneWatch
 from asmplan.sim.pose_error import PoseError, apply_pose_error
@@ -308,6 +310,21 @@ class PinHole:
     coupled_gripper: bool = False
 
 
+def plain_fit_contact(world: BulletWorld, pin: int, block: int, pin_radius_m: float,
+                      pin_length_m: float, hole_radius_m: float, hole_depth_m: float,
+                      block_height_m: float, friction: float) -> HeldFitContact:
+    """The exact fit contact (:mod:`asmplan.sim.feature_contact`) of a plain, unchamfered pin
+    (body frame at its centre, axis z, tip at -z) in a blind, unchamfered hole at the centre of
+    a block's top face (block frame at its centre)."""
+    model = FitContactModel(
+        PinFeature(np.array([0.0, 0.0, -pin_length_m / 2.0]), np.array([0.0, 0.0, 1.0]),
+                   pin_radius_m, 0.0, pin_length_m),
+        BoreFeature(np.array([0.0, 0.0, block_height_m / 2.0]), np.array([0.0, 0.0, 1.0]),
+                    hole_radius_m, 0.0, hole_depth_m, False,
+                    hole_radius_m + min(pin_radius_m, 2e-3)))
+    return HeldFitContact(world, pin, (FitPair(block, model),), (friction,))
+
+
 def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_m: float = 0.0,
                   scene: PinHole | None = None, criteria: SuccessCriteria | None = None,
                   pose_error: PoseError | None = None) -> tuple[StepRecord, StepOutcome]:
@@ -325,7 +342,8 @@ def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_
             s.block_size_m, (HoleSpec((0.0, 0.0), s.hole_radius_m, s.hole_depth_m, s.n_sides),))
         T_block = np.eye(4)
         T_block[:3, 3] = [s.block_xy_m[0], s.block_xy_m[1], s.block_size_m[2] / 2.0]
-        world.add_body(block_pieces, 0.0, T_block, friction=s.block_friction, name="block")
+        block = world.add_body(block_pieces, 0.0, T_block, friction=s.block_friction,
+                               name="block")
         pin_piece = ConvexPiece(kind="cylinder", T_part_piece=np.eye(4), radius_m=r_pin,
                                 length_m=s.pin_length_m)
         mass = s.pin_density_kg_m3 * math.pi * r_pin**2 * s.pin_length_m
@@ -365,9 +383,15 @@ def pin_insertion(fidelity: Fidelity, radial_clearance_m: float, lateral_offset_
             traj = apply_pose_error(traj, (0.0, 0.0, -1.0), pose_error)
         target = np.eye(4)
         target[:3, 3] = [x, y, seated_centre_z]
+        fit = None
+        if fidelity.feature_contact and radial_clearance_m > 0:
+            fit = plain_fit_contact(world, pin, block, r_pin, s.pin_length_m, s.hole_radius_m,
+                                    s.hole_depth_m, s.block_size_m[2],
+                                    s.pin_friction * s.block_friction)
+            # the block is offset in x, y: the fit model's block frame is the block body's
         return execute_step(world, gripper, pin, traj, criteria=criteria,
                             T_world_part_target=target, mate_axis_world=(0.0, 0.0, -1.0),
-                            insertion_length_m=s.hole_depth_m)
+                            insertion_length_m=s.hole_depth_m, fit_contact=fit)
 
 
 # --------------------------------------------------------------------------------------------
@@ -418,7 +442,7 @@ def jam_depth_m(fidelity: Fidelity, clearance_m: float, tilt_rad: float,
                                                                   s.hole_depth_m, s.hole_sides),))
         T_block = np.eye(4)
         T_block[2, 3] = H / 2.0
-        world.add_body(block, 0.0, T_block, friction=s.friction, name="block")
+        block_body = world.add_body(block, 0.0, T_block, friction=s.friction, name="block")
         L = s.peg_length_m
         mass = 7800.0 * math.pi * (d / 2.0) ** 2 * L
         # axis u = (-sin t, 0, cos t) (top leans to -x), across e = (cos t, 0, sin t)
@@ -435,15 +459,27 @@ def jam_depth_m(fidelity: Fidelity, clearance_m: float, tilt_rad: float,
                                           radius_m=d / 2.0, length_m=L),),
                              mass, T_peg, inertia_kgm2=cylinder_inertia(mass, d / 2.0, L)
                              * s.rotational_stiffening, friction=s.friction, name="peg")
+        fit = None
+        if fidelity.feature_contact:
+            fit = plain_fit_contact(world, peg, block_body, d / 2.0, L, D / 2.0, s.hole_depth_m,
+                                    H, s.friction * s.friction)
+            fit.activate()
         force = [s.side_N, 0.0, -s.push_N]
         for _ in range(round(s.settle_s / fidelity.dt_s)):
             world.apply_force(peg, -1, force, world.com_position_m(peg).tolist())
             world.step()
+            if fit is not None:
+                fit.after_step()
             v = world.velocity(peg)[0]
             speed = float(np.linalg.norm(v))
             if speed > s.max_speed_mps:  # a robot feeding slowly near contact
                 v = v * (s.max_speed_mps / speed)
             world.set_velocity(peg, v.tolist(), (0.0, 0.0, 0.0))  # the wrist holds the tilt
+            if fit is not None:  # exactly: the model's solve is the only source of rotation
+                T_now = world.pose(peg)
+                T_now[:3, :3] = R
+                world.set_pose(peg, T_now)
+                fit.held_pose_changed(T_now)
         T = world.pose(peg)
     u = T[:3, 2]
     bottom = T[:3, 3] - (L / 2.0) * u

@@ -60,6 +60,16 @@ class Contacts:
         return Contacts(*(getattr(self, f)[mask] for f in _CONTACT_FIELDS))
 
 
+def concat_contacts(a: Contacts, b: Contacts) -> Contacts:
+    """The points of ``a`` followed by those of ``b`` (same body A), e.g. Bullet's and the
+    exact fit model's (:mod:`asmplan.sim.feature_contact`)."""
+    if b.count == 0:
+        return a
+    if a.count == 0:
+        return b
+    return Contacts(*(np.concatenate([getattr(a, f), getattr(b, f)]) for f in _CONTACT_FIELDS))
+
+
 _CONTACT_FIELDS = (
     "body_b",
     "link_a",

@@ -41,7 +41,8 @@ from numpy.typing import ArrayLike
 from ..knowledge.frames import invert
 from ..planner.trajectory import OPEN_PHASES, Trajectory, quat_xyzw_from_matrix, rotation_angle_rad
 from .bullet import BulletWorld
-from .contacts import Contacts
+from .contacts import Contacts, concat_contacts
+from .feature_contact import HeldFitContact
 from .gripper import FINGER_LINKS, Gripper
 from .guard import SceneWatch
 from .judge import _SPEED_MARGIN_MPS, _failures, judge
@@ -141,6 +142,7 @@ def execute_step(
     insertion_length_m: float | None = None,
     guard: SceneGuard | None = None,
     carry_anchor: bool = False,
+    fit_contact: HeldFitContact | None = None,
 ) -> tuple[StepRecord, StepOutcome]:
     """Drive the gripper along ``trajectory`` and judge the step.
 
@@ -178,6 +180,10 @@ def execute_step(
         contact with a body other than the gripper in "lower" (the pipeline passes
         :attr:`~asmplan.sim.fidelity.Fidelity.carry_anchor`); no effect when the world's
         fidelity has ``friction_anchor`` (anchors throughout).
+    fit_contact : HeldFitContact, optional
+        The exact contact of the part's fits (:mod:`asmplan.sim.feature_contact`): switched on
+        at the first step of "lower" and kept to the end; its points join Bullet's in every
+        contact criterion (insertion force, penetration, two-point evidence).
 
     Returns
     -------
@@ -246,12 +252,24 @@ def execute_step(
     carry_anchor = carry_anchor and not fid.friction_anchor
     anchored = False
     set_down = False  # the part touched something but the fingers in "lower"
+    fit_from = next((j for j in range(n_steps) if is_lower[j]), n_steps)
+
+    def part_contacts() -> Contacts:
+        con = world.contacts(part_body)
+        if fit_contact is not None and fit_contact.active:
+            return concat_contacts(con, fit_contact.contacts())
+        return con
+
     for i in range(n_steps):
         if carry_anchor:  # anchors while clamped and carried, off at the set-down contact
             want = not is_open[i] and not set_down and int(phase_idx[i]) <= placed_after
             if want != anchored:
                 world.set_friction_anchor(gripper.body, FINGER_LINKS, want)
                 anchored = want
+        if fit_contact is not None:
+            if i == fit_from:
+                fit_contact.activate()
+            fit_contact.before_step()
         gripper.command_pose_pq(pos_cmd[i], quat_cmd[i])
         if is_open[i]:
             if mode_open is not True:
@@ -263,12 +281,14 @@ def execute_step(
         if before_step is not None:  # e.g. a press fit's resistance (asmplan.sim.press)
             before_step(i)
         world.step()
+        if fit_contact is not None:
+            fit_contact.after_step()
         if r >= m or tick_steps[r] != i:
             # between record rows: sample the peak criteria at their own rate
             if (i + 1) % peak_every:
                 continue
             if is_lower[i]:
-                con = world.contacts(part_body)
+                con = part_contacts()
                 is_finger = (con.body_b == gripper.body) & _is_finger_link(con.link_b)
                 if carry_anchor and not set_down:
                     set_down = _touches_other_than(con, gripper.body)
@@ -287,7 +307,7 @@ def execute_step(
         T_part = world.pose(part_body)
         T_tcp = gripper.tcp_pose()
         travel = gripper.finger_travel_m()
-        con = world.contacts(part_body)
+        con = part_contacts()
         is_finger = (con.body_b == gripper.body) & _is_finger_link(con.link_b)
         forces = [
             float(np.sum(con.normal_force_N[is_finger & (con.link_b == link)]))

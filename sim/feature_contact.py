@@ -46,6 +46,8 @@ Bullet's contact.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import nnls
@@ -101,95 +103,146 @@ def _tangents(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return t1, np.cross(n, t1)
 
 
+@dataclass(frozen=True)
+class FitPair:
+    """One modelled fit of the held body: the ``partner`` body and the geometry; ``held_is_pin``
+    says which side the held body is (False: the held body has the bore, e.g. a collar)."""
+
+    partner: int
+    model: FitContactModel
+    held_is_pin: bool = True
+
+
 class HeldFitContact:
-    """The exact contact of one held pin in one bore (see the module docstring).
+    """The exact contact of a held body's fits (see the module docstring).
 
     Parameters
     ----------
     world : BulletWorld
-    pin_body, bore_body : int
-        The held body and the body with the bore.
-    model : FitContactModel
-        The pin and bore geometry in their bodies' link frames.
-    friction : float
-        Combined Coulomb coefficient of the pair.
+    held_body : int
+        The body the gripper carries.
+    pairs : sequence of FitPair
+        Its fits, with the partner bodies; Bullet's contact between the held body and each
+        partner is off while the model is active.
+    friction : sequence of float
+        Combined Coulomb coefficient of each pair.
     """
 
-    def __init__(self, world: BulletWorld, pin_body: int, bore_body: int,
-                 model: FitContactModel, friction: float) -> None:
+    def __init__(self, world: BulletWorld, held_body: int, pairs: Sequence[FitPair],
+                 friction: Sequence[float]) -> None:
+        if len(pairs) != len(friction) or not pairs:
+            raise ValueError(f"HeldFitContact: expected one friction value per pair (>= 1 pair), "
+                             f"found {len(pairs)} pairs and {len(friction)} values")
         self.world = world
-        self.pin_body = pin_body
-        self.bore_body = bore_body
-        self.model = model
-        self.friction = float(friction)
-        mass, T_link_inertial, inertia_link = world.rigid_properties(pin_body)
+        self.held_body = held_body
+        self.pairs = tuple(pairs)
+        self.friction = np.asarray(friction, dtype=float)
+        mass, T_link_inertial, inertia_link = world.rigid_properties(held_body)
         self._mass = mass
         self._com_link = T_link_inertial[:3, 3].copy()
         w, V = np.linalg.eigh(inertia_link)
         self._inv_sqrt_inertia_link = V @ np.diag(1.0 / np.sqrt(w)) @ V.T
-        self._bore_dynamic = world.body_mass_kg(bore_body) > 0.0
+        self._partners = sorted({p.partner for p in self.pairs})
+        self._dynamic = {b: world.body_mass_kg(b) > 0.0 for b in self._partners}
+        self._reach = max(p.model.pin.length_m + p.model.pin.radius_m
+                          + p.model.bore.rim_radius_m for p in self.pairs)
         self.active = False
         self._T_prev: np.ndarray | None = None
-        self._T_bore: np.ndarray | None = None
-        self._found: FitContact | None = None
+        self._T_partner: dict[int, np.ndarray] = {}
+        self._found: tuple[FitContact, np.ndarray] | None = None
         self._found_margin = 0.0
         self._last = _empty_contacts()
-        self._reaction: tuple[np.ndarray, np.ndarray] | None = None
+        self._reaction: list[tuple[int, np.ndarray, np.ndarray]] = []
         self.steps_solved = 0
 
     # ------------------------------------------------------------------ switching
     def activate(self) -> None:
-        """Take the pair's contact over from Bullet (from the body's present pose)."""
+        """Take the pairs' contact over from Bullet (from the body's present pose)."""
         if self.active:
             return
-        self.world.set_collision_enabled(self.pin_body, self.bore_body, False)
-        self._T_prev = self.world.pose(self.pin_body)
+        for b in self._partners:
+            self.world.set_collision_enabled(self.held_body, b, False)
+        self._T_prev = self.world.pose(self.held_body)
         self._found = None
         self.active = True
 
     def deactivate(self) -> None:
-        """Give the pair's contact back to Bullet."""
+        """Give the pairs' contact back to Bullet."""
         if self.active:
-            self.world.set_collision_enabled(self.pin_body, self.bore_body, True)
+            for b in self._partners:
+                self.world.set_collision_enabled(self.held_body, b, True)
             self.active = False
             self._last = _empty_contacts()
 
+    def held_pose_changed(self, T_world_held: np.ndarray) -> None:
+        """Tell the model the caller moved the held body (e.g. a scene holding its tilt)."""
+        self._T_prev = np.array(T_world_held, dtype=float)
+        self._found = None
+
     # ------------------------------------------------------------------ per step
     def before_step(self) -> None:
-        """Apply last step's reaction to a dynamic block (one step late)."""
-        if self.active and self._reaction is not None and self._bore_dynamic:
-            force, point = self._reaction
-            self.world.apply_force(self.bore_body, -1, force.tolist(), point.tolist())
+        """Apply last step's reaction to dynamic partners (one step late)."""
+        if not self.active:
+            return
+        for body, force, point in self._reaction:
+            if self._dynamic[body]:
+                self.world.apply_force(body, -1, force.tolist(), point.tolist())
+
+    def _detect(self, T_held: np.ndarray, margin: float) -> tuple[FitContact, np.ndarray]:
+        """Contacts of every pair (normals pushing the held body) and each point's pair."""
+        pts, nrm, gap, owner = [], [], [], []
+        for i, pair in enumerate(self.pairs):
+            T_other = self._T_partner[pair.partner]
+            if pair.held_is_pin:
+                fc = pair.model.contacts(T_held, T_other, margin)
+                n = fc.normal
+            else:
+                fc = pair.model.contacts(T_other, T_held, margin)
+                n = -fc.normal
+            if fc.count:
+                pts.append(fc.point_m)
+                nrm.append(n)
+                gap.append(fc.gap_m)
+                owner.append(np.full(fc.count, i))
+        if not gap:
+            return (FitContact(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)),
+                    np.zeros(0, dtype=int))
+        return (FitContact(np.vstack(pts), np.vstack(nrm), np.concatenate(gap)),
+                np.concatenate(owner))
 
     def after_step(self) -> None:
-        """Solve the pin's contact for the step Bullet just took (see the module docstring)."""
+        """Solve the held body's fit contact for the step Bullet just took (module docstring)."""
         if not self.active:
             return
         assert self._T_prev is not None
         world, dt = self.world, self.world.fidelity.dt_s
         T_prev = self._T_prev
-        T_bore = world.pose(self.bore_body)
-        v, w = world.velocity(self.pin_body)
+        moved = False
+        for b in self._partners:
+            if self._dynamic[b] or b not in self._T_partner:
+                T = world.pose(b)
+                old = self._T_partner.get(b)
+                moved = moved or old is None or not np.allclose(T, old, atol=1e-9)
+                self._T_partner[b] = T
+        v, w = world.velocity(self.held_body)
         R_prev = T_prev[:3, :3]
-        c_prev = T_prev[:3, :3] @ self._com_link + T_prev[:3, 3]
-        reach = self.model.pin.length_m + self.model.pin.radius_m
-        travel = dt * (float(np.linalg.norm(v)) + reach * float(np.linalg.norm(w)))
+        c_prev = R_prev @ self._com_link + T_prev[:3, 3]
+        travel = dt * (float(np.linalg.norm(v)) + self._reach * float(np.linalg.norm(w)))
         margin = MIN_MARGIN_M + 2.0 * travel
-        moved_bore = self._T_bore is None or not np.allclose(T_bore, self._T_bore, atol=1e-9)
-        if self._found is None or self._found_margin < margin or moved_bore:
-            self._found = self.model.contacts(T_prev, T_bore, margin)
+        if self._found is None or self._found_margin < margin or moved:
+            self._found = self._detect(T_prev, margin)
             self._found_margin = margin
-        found = self._found
-        self._reaction = None
+        found, owner = self._found
+        self._reaction = []
         if found.count == 0:
             self._last = _empty_contacts()
-            self._T_prev = world.pose(self.pin_body)
-            self._T_bore = T_bore
+            self._T_prev = world.pose(self.held_body)
             self._found = None
             return
         Minv_sqrt = self._minv_sqrt(R_prev)
         u = np.concatenate([v, w])
-        u_new, lam_n, p_t, t1, t2 = self._solve_velocity(found, c_prev, u, Minv_sqrt, dt)
+        mu = self.friction[owner]
+        u_new, lam_n, p_t, t1, t2 = self._solve_velocity(found, mu, c_prev, u, Minv_sqrt, dt)
         # re-integrate from the pre-step pose with the corrected velocity
         c_new = c_prev + dt * u_new[:3]
         wn = float(np.linalg.norm(u_new[3:]))
@@ -198,22 +251,22 @@ class HeldFitContact:
         T_new[:3, :3] = R_new
         T_new[:3, 3] = c_new - R_new @ self._com_link
         new_margin = MIN_MARGIN_M + 2.0 * dt * (float(np.linalg.norm(u_new[:3]))
-                                               + reach * wn)
-        after = self.model.contacts(T_new, T_bore, new_margin)
-        if after.count and float(np.min(after.gap_m)) < -PROJECTION_TOLERANCE_M:
-            T_new, after = self._project(T_new, T_bore, after, new_margin)
-        world.set_pose(self.pin_body, T_new)
-        world.set_velocity(self.pin_body, u_new[:3], u_new[3:])
+                                               + self._reach * wn)
+        after = self._detect(T_new, new_margin)
+        if after[0].count and float(np.min(after[0].gap_m)) < -PROJECTION_TOLERANCE_M:
+            T_new, after = self._project(T_new, after, new_margin)
+        world.set_pose(self.held_body, T_new)
+        world.set_velocity(self.held_body, u_new[:3], u_new[3:])
         self._T_prev = T_new
-        self._T_bore = T_bore
         self._found, self._found_margin = after, new_margin
         self.steps_solved += 1
-        # what this step's impulses were, as forces on the pin
+        # this step's impulses as forces on the held body
         n = found.normal
         f_n = lam_n / dt
         f_t = (p_t[:, :1] * t1 + p_t[:, 1:] * t2) / dt
+        partner_of = np.array([self.pairs[i].partner for i in owner], dtype=int)
         self._last = Contacts(
-            body_b=np.full(found.count, self.bore_body, dtype=int),
+            body_b=partner_of,
             link_a=np.full(found.count, -1, dtype=int),
             link_b=np.full(found.count, -1, dtype=int),
             position_on_a_m=found.point_m.copy(),
@@ -223,11 +276,13 @@ class HeldFitContact:
             normal_force_N=f_n,
             friction_on_a_N=f_t,
         )
-        total = np.sum(f_n[:, None] * n + f_t, axis=0)
-        if np.any(f_n > 0):
-            weights = f_n / float(np.sum(f_n))
-            point = np.sum(weights[:, None] * found.point_m, axis=0)
-            self._reaction = (-total, point)
+        for b in self._partners:
+            sel = (partner_of == b) & (f_n > 0)
+            if np.any(sel):
+                total = np.sum(f_n[sel, None] * n[sel] + f_t[sel], axis=0)
+                weights = f_n[sel] / float(np.sum(f_n[sel]))
+                point = np.sum(weights[:, None] * found.point_m[sel], axis=0)
+                self._reaction.append((b, -total, point))
 
     def contacts(self) -> Contacts:
         """The pin's contact points with the bore after the last step (with their forces)."""
@@ -244,7 +299,7 @@ class HeldFitContact:
     def _rows(points: np.ndarray, dirs: np.ndarray, c: np.ndarray) -> np.ndarray:
         return np.hstack([dirs, np.cross(points - c, dirs)])
 
-    def _solve_velocity(self, found: FitContact, c: np.ndarray, u: np.ndarray,
+    def _solve_velocity(self, found: FitContact, mu: np.ndarray, c: np.ndarray, u: np.ndarray,
                         Minv_sqrt: np.ndarray, dt: float):
         Jn = self._rows(found.point_m, found.normal, c)
         Gn = Jn @ Minv_sqrt
@@ -265,8 +320,8 @@ class HeldFitContact:
                 break
             y, lam = sol
             u_new = u_f + Minv_sqrt @ y
-            cap = self.friction * lam * touching
-            if rnd == FRICTION_ROUNDS - 1 or self.friction <= 0.0 or not np.any(cap > 0):
+            cap = mu * lam * touching
+            if rnd == FRICTION_ROUNDS - 1 or not np.any(cap > 0):
                 break
             for i in np.flatnonzero((cap > 0) | np.any(p_t != 0.0, axis=1)):
                 J = Jt[i]
@@ -279,19 +334,20 @@ class HeldFitContact:
                 p_t[i] = new
                 u_new = u_new + Minv @ (J.T @ (new - old))
         norm = np.linalg.norm(p_t, axis=1)
-        over = norm > self.friction * lam * touching
+        over = norm > mu * lam * touching
         if np.any(over):  # what the last normal solve bears
-            p_t[over] *= (self.friction * lam[over] * touching[over] / norm[over])[:, None]
+            p_t[over] *= (mu[over] * lam[over] * touching[over] / norm[over])[:, None]
         return u_new, lam, p_t, t1, t2
 
-    def _project(self, T: np.ndarray, T_bore: np.ndarray, found: FitContact,
-                 margin: float) -> tuple[np.ndarray, FitContact]:
+    def _project(self, T: np.ndarray, found: tuple[FitContact, np.ndarray], margin: float
+                 ) -> tuple[np.ndarray, tuple[FitContact, np.ndarray]]:
         R = T[:3, :3]
         c = R @ self._com_link + T[:3, 3]
-        Minv_sqrt = self._minv_sqrt(R)
         for _ in range(2):
-            Jn = self._rows(found.point_m, found.normal, c)
-            sol = least_distance(Jn @ Minv_sqrt, -found.gap_m)
+            fc = found[0]
+            Minv_sqrt = self._minv_sqrt(R)
+            Jn = self._rows(fc.point_m, fc.normal, c)
+            sol = least_distance(Jn @ Minv_sqrt, -fc.gap_m)
             if sol is None:
                 break
             dq = Minv_sqrt @ sol[0]
@@ -302,8 +358,8 @@ class HeldFitContact:
             T = np.eye(4)
             T[:3, :3] = R
             T[:3, 3] = c - R @ self._com_link
-            found = self.model.contacts(T, T_bore, margin)
-            if found.count == 0 or float(np.min(found.gap_m)) >= -PROJECTION_TOLERANCE_M:
+            found = self._detect(T, margin)
+            if found[0].count == 0 or float(np.min(found[0].gap_m)) >= -PROJECTION_TOLERANCE_M:
                 break
         return T, found
 

@@ -174,6 +174,12 @@ class Fidelity:
         Largest displacement (m; and that over 10 mm as a rotation) over ``rest_window_s``
         of a body at rest: 1 um at BALANCED and ACCURATE (the contact slop), i.e. a body
         creeping slower than 10 um/s is held where it is.
+    feature_contact : bool
+        Exact feature-level contact for the held part's cylindrical fits during the insertion
+        (:mod:`asmplan.sim.feature_contact`): from the start of the "lower" phase Bullet's
+        contact between the held part and its mate partners is off and the pin in its bore is
+        solved on the declared geometry (diameters as built, chamfers, depth), exactly in the
+        wedge. BALANCED and ACCURATE: True; FAST: False (coarse on purpose).
 """
 
     name: str
@@ -197,6 +203,7 @@ class Fidelity:
     constraint_solver: str = "sequential_impulse"
     rest_window_s: float = 0.0
     rest_displacement_m: float = 1e-6
+    feature_contact: bool = False
 
     def __post_init__(self) -> None:
         def positive(label: str, value: float) -> None:
@@ -293,6 +300,7 @@ BALANCED = Fidelity(
     min_resolvable_clearance_m=4e-6,
     interference_resolution_m=0.05e-3,
     rest_window_s=0.1,
+    feature_contact=True,
 )
 
 ACCURATE = Fidelity(
@@ -311,6 +319,7 @@ ACCURATE = Fidelity(
     min_resolvable_clearance_m=4e-6,
     interference_resolution_m=0.02e-3,
     rest_window_s=0.1,
+    feature_contact=True,
 )
 
 PRESETS: dict[str, Fidelity] = {f.name: f for f in (FAST, BALANCED, ACCURATE)}
