@@ -217,7 +217,8 @@ REFERENCE_DT_S = 1.0 / 8000.0
 
 def fits_reference_fidelity() -> Any:
     """ACCURATE at :data:`REFERENCE_DT_S` (record interval kept at 4 ms), with no body put
-    to sleep (a reference models everything; :mod:`asmplan.sim.rest`)."""
+    to sleep (a reference models everything; :mod:`asmplan.sim.rest`) and Bullet's own
+    contact (no exact fit contact: independent of the presets that use it)."""
     import dataclasses
 
     from asmplan.sim.fidelity import ACCURATE
@@ -225,7 +226,7 @@ def fits_reference_fidelity() -> Any:
     return dataclasses.replace(ACCURATE, name=f"reference (1/{round(1 / REFERENCE_DT_S)} s)",
                                dt_s=REFERENCE_DT_S,
                                record_every_steps=max(1, round(0.004 / REFERENCE_DT_S)),
-                               rest_window_s=0.0)
+                               rest_window_s=0.0, feature_contact=False)
 
 
 @dataclass(frozen=True)

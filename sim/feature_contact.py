@@ -67,7 +67,7 @@ FRICTION_GAP_M = 0.1e-6
 """Contact points closer than this (m) take friction; a point still closing its gap this step
 takes it from the next (friction at a point not yet touching would hold the part off it)."""
 
-MIN_MARGIN_M = 20e-6
+MIN_MARGIN_M = 50e-6
 """Least search margin for contact points, m (plus the step's travel)."""
 
 
@@ -250,7 +250,7 @@ class HeldFitContact:
         T_new = np.eye(4)
         T_new[:3, :3] = R_new
         T_new[:3, 3] = c_new - R_new @ self._com_link
-        new_margin = MIN_MARGIN_M + 2.0 * dt * (float(np.linalg.norm(u_new[:3]))
+        new_margin = MIN_MARGIN_M + 4.0 * dt * (float(np.linalg.norm(u_new[:3]))
                                                + self._reach * wn)
         after = self._detect(T_new, new_margin)
         if after[0].count and float(np.min(after[0].gap_m)) < -PROJECTION_TOLERANCE_M:

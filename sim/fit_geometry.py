@@ -139,42 +139,50 @@ def frame_of(origin: np.ndarray, axis: np.ndarray) -> np.ndarray:
     return T
 
 
+class Profile:
+    """A closed meridian polygon (k, 2) with its segments precomputed for :meth:`sdf`."""
+
+    def __init__(self, polygon: np.ndarray) -> None:
+        self.polygon = np.asarray(polygon, dtype=float)
+        a = self.polygon
+        b = np.roll(a, -1, axis=0)
+        self._a, self._b, self._ab = a, b, b - a
+        self._ab2 = np.maximum(np.sum(self._ab * self._ab, axis=1), 1e-300)
+        seg_n = np.column_stack([self._ab[:, 1], -self._ab[:, 0]])
+        seg_n /= np.maximum(np.linalg.norm(seg_n, axis=1, keepdims=True), 1e-300)
+        if 0.5 * np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]) < 0:
+            seg_n = -seg_n
+        self._seg_n = seg_n
+        horizontal = self._ab[:, 1] == 0.0
+        self._inv_slope = np.where(horizontal, 0.0, self._ab[:, 0]
+                                   / np.where(horizontal, 1.0, self._ab[:, 1]))
+
+    def sdf(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Signed distance (n,) from 2-D ``points`` (n, 2) to the polygon (positive outside)
+        and the unit outward direction (n, 2): toward the nearest boundary point from outside
+        reversed (away from the material), toward it from inside."""
+        a, ab = self._a, self._ab
+        ap = points[:, None, :] - a[None, :, :]  # (n, k, 2)
+        t = np.clip((ap[..., 0] * ab[:, 0] + ap[..., 1] * ab[:, 1]) / self._ab2, 0.0, 1.0)
+        diff = ap - t[..., None] * ab[None]
+        dist2 = diff[..., 0] ** 2 + diff[..., 1] ** 2
+        j = np.argmin(dist2, axis=1)
+        idx = np.arange(points.shape[0])
+        d = np.sqrt(dist2[idx, j])
+        py, px = points[:, 1:2], points[:, 0:1]
+        cond = (a[None, :, 1] > py) != (self._b[None, :, 1] > py)
+        xint = a[None, :, 0] + (py - a[None, :, 1]) * self._inv_slope[None, :]
+        inside = (np.count_nonzero(cond & (px < xint), axis=1) % 2) == 1
+        seg_n = self._seg_n[j]
+        safe = d > 1e-12
+        out = np.where(safe[:, None], diff[idx, j] / np.where(safe, d, 1.0)[:, None], seg_n)
+        out = np.where(inside[:, None] & safe[:, None], -out, out)
+        return np.where(inside, -d, d), out
+
+
 def polygon_sdf(points: np.ndarray, polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Signed distance (n,) from 2-D ``points`` (n, 2) to a closed ``polygon`` (k, 2) (positive
-    outside), with the unit outward direction (n, 2) toward the nearest boundary point (away
-    from the material outside, toward the outside from within)."""
-    a = polygon
-    b = np.roll(polygon, -1, axis=0)
-    ab = b - a  # (k, 2)
-    ap = points[:, None, :] - a[None, :, :]  # (n, k, 2)
-    t = np.clip(np.einsum("nkj,kj->nk", ap, ab) / np.maximum(np.sum(ab * ab, axis=1), 1e-300),
-                0.0, 1.0)
-    nearest = a[None] + t[..., None] * ab[None]  # (n, k, 2)
-    diff = points[:, None, :] - nearest
-    dist = np.linalg.norm(diff, axis=2)
-    j = np.argmin(dist, axis=1)
-    idx = np.arange(points.shape[0])
-    d = dist[idx, j]
-    # inside: crossing number
-    py = points[:, 1][:, None]
-    px = points[:, 0][:, None]
-    cond = (a[None, :, 1] > py) != (b[None, :, 1] > py)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        xint = a[None, :, 0] + (py - a[None, :, 1]) * ab[None, :, 0] / ab[None, :, 1]
-    inside = (np.sum(cond & (px < xint), axis=1) % 2) == 1
-    vec = diff[idx, j]
-    # the outward normal of the nearest segment (counter-clockwise: (dy, -dx))
-    seg = ab[j]
-    seg_n = np.column_stack([seg[:, 1], -seg[:, 0]])
-    seg_n /= np.maximum(np.linalg.norm(seg_n, axis=1, keepdims=True), 1e-300)
-    signed_area = 0.5 * np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1])
-    if signed_area < 0:
-        seg_n = -seg_n
-    out = np.where(d[:, None] > 1e-12, vec / np.maximum(d[:, None], 1e-300), seg_n)
-    out = np.where(inside[:, None], -out, out)
-    # on the exact boundary the segment's normal is the outward one
-    out = np.where((d[:, None] <= 1e-12), seg_n, out)
-    return np.where(inside, -d, d), out
+    """:meth:`Profile.sdf` of a polygon given as (k, 2) vertices."""
+    return Profile(polygon).sdf(points)
 
 
 def _meridian(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -188,11 +196,13 @@ def _meridian(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rho, radial
 
 
-def revolved_sdf(points: np.ndarray, profile: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def revolved_sdf(points: np.ndarray, profile: np.ndarray | Profile
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """Signed distance (n,) from points (n, 3), in a solid of revolution's frame (axis z), to
     the solid whose meridian is ``profile``; and the unit outward normal (n, 3) there."""
+    prof = profile if isinstance(profile, Profile) else Profile(profile)
     rho, radial = _meridian(points)
-    d, n2 = polygon_sdf(np.column_stack([rho, points[:, 2]]), profile)
+    d, n2 = prof.sdf(np.column_stack([rho, points[:, 2]]))
     normal = n2[:, :1] * radial
     normal[:, 2] += n2[:, 1]
     return d, normal
@@ -213,12 +223,6 @@ class FitContact:
     @property
     def count(self) -> int:
         return int(self.gap_m.shape[0])
-
-
-def _circle(T: np.ndarray, radius: float, angles: np.ndarray) -> np.ndarray:
-    """World points of a circle of ``radius`` in the xy plane of frame ``T`` (4, 4)."""
-    return (T[:3, 3][None, :] + radius * (np.cos(angles)[:, None] * T[:3, 0][None, :]
-                                          + np.sin(angles)[:, None] * T[:3, 1][None, :]))
 
 
 def _refine(values: np.ndarray, margin_m: float) -> list[tuple[float, bool]]:
@@ -261,9 +265,10 @@ class FitContactModel:
         self.bore = bore
         self._T_link_pin = frame_of(pin.tip_m, pin.axis_to_root)
         self._T_link_bore = frame_of(bore.mouth_m, bore.axis_out)
-        self._pin_profile = pin.profile()
-        self._bore_profile = bore.profile()
+        self._pin_profile = Profile(pin.profile())
+        self._bore_profile = Profile(bore.profile())
         self._angles = np.linspace(0.0, 2.0 * math.pi, CIRCLE_SAMPLES, endpoint=False)
+        self._cos, self._sin = np.cos(self._angles), np.sin(self._angles)
         r, cp = pin.radius_m, min(pin.chamfer_m, 0.999 * pin.radius_m)
         # pin edge circles: (height s along the axis, radius)
         self._pin_circles = [(0.0, r - cp)] + ([(cp, r)] if cp > 0 else [])
@@ -271,6 +276,7 @@ class FitContactModel:
             self._pin_circles.append((pin.length_m, pin.seat_radius_m))
         R, ch = bore.radius_m, bore.chamfer_m
         self._bore_circles = [(0.0, R + ch)] + ([(-ch, R)] if ch > 0 else [])
+        self._far = bore.rim_radius_m + max(rad for _, rad in self._pin_circles)
 
     def frames(self, T_world_pin_body: np.ndarray, T_world_bore_body: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
@@ -278,52 +284,66 @@ class FitContactModel:
         mouth, z outward)."""
         return T_world_pin_body @ self._T_link_pin, T_world_bore_body @ self._T_link_bore
 
+    def _apart(self, Tp: np.ndarray, Tb: np.ndarray, margin_m: float) -> bool:
+        """True when no pin edge comes within ``margin_m`` of the block's face or bore (the
+        pin's lowest edge point is above the face, or the pin is beyond the modelled rim)."""
+        zb = Tb[:3, 2]
+        tip_z = float(zb @ (Tp[:3, 3] - Tb[:3, 3]))
+        ax_z = float(zb @ Tp[:3, 2])
+        lean = math.sqrt(max(0.0, 1.0 - ax_z * ax_z))
+        lowest = min(tip_z + s * ax_z - rad * lean for s, rad in self._pin_circles)
+        if lowest > margin_m:
+            return True
+        rel = Tp[:3, 3] - Tb[:3, 3]
+        lateral = float(np.linalg.norm(rel - (zb @ rel) * zb))
+        return lateral > self._far + self.pin.length_m * lean + margin_m
+
     def contacts(self, T_world_pin_body: np.ndarray, T_world_bore_body: np.ndarray,
                  margin_m: float) -> FitContact:
         """Contact points with a gap below ``margin_m`` (m) at these body poses."""
         Tp, Tb = self.frames(T_world_pin_body, T_world_bore_body)
-        Tb_inv_R, Tb_p = Tb[:3, :3].T, Tb[:3, 3]
-        Tp_inv_R, Tp_p = Tp[:3, :3].T, Tp[:3, 3]
-        pts, nrm, gap = [], [], []
+        if self._apart(Tp, Tb, margin_m):
+            return FitContact(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+        Rb, pb = Tb[:3, :3], Tb[:3, 3]
+        Rp, pp = Tp[:3, :3], Tp[:3, 3]
 
         def pin_edge_vs_block(world_pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            local = (world_pts - Tb_p) @ Tb_inv_R.T
-            d, n = revolved_sdf(local, self._bore_profile)
-            return d, n @ Tb[:3, :3].T
+            d, n = revolved_sdf((world_pts - pb) @ Rb, self._bore_profile)
+            return d, n @ Rb.T
 
         def block_edge_vs_pin(world_pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            local = (world_pts - Tp_p) @ Tp_inv_R.T
-            d, n = revolved_sdf(local, self._pin_profile)
-            return d, -(n @ Tp[:3, :3].T)
+            d, n = revolved_sdf((world_pts - pp) @ Rp, self._pin_profile)
+            return d, -(n @ Rp.T)
 
-        for s, radius in self._pin_circles:
-            Tc = Tp.copy()
-            Tc[:3, 3] = Tp[:3, 3] + s * Tp[:3, 2]
-            self._circle_contacts(Tc, radius, margin_m, pin_edge_vs_block, True, pts, nrm, gap)
-        for z, radius in self._bore_circles:
-            Tc = Tb.copy()
-            Tc[:3, 3] = Tb[:3, 3] + z * Tb[:3, 2]
-            self._circle_contacts(Tc, radius, margin_m, block_edge_vs_pin, False, pts, nrm, gap)
+        pts, nrm, gap = [], [], []
+        pin_c = [(pp + s * Rp[:, 2], rad) for s, rad in self._pin_circles]
+        bore_c = [(pb + z * Rb[:, 2], rad) for z, rad in self._bore_circles]
+        for circles, R, sdf, on_pin in ((pin_c, Rp, pin_edge_vs_block, True),
+                                        (bore_c, Rb, block_edge_vs_pin, False)):
+            n = self._angles.size
+            ring = self._cos[:, None] * R[:, 0] + self._sin[:, None] * R[:, 1]  # (n, 3)
+            world = np.vstack([c + rad * ring for c, rad in circles])
+            d_all, _ = sdf(world)
+            chosen: list[np.ndarray] = []
+            for i, (c, rad) in enumerate(circles):
+                picks = _refine(d_all[i * n:(i + 1) * n], margin_m)
+                if picks:
+                    ang = np.array([a for a, _ in picks])
+                    chosen.append(c + rad * (np.cos(ang)[:, None] * R[:, 0]
+                                             + np.sin(ang)[:, None] * R[:, 1]))
+            if not chosen:
+                continue
+            p = np.vstack(chosen)
+            d2, n2 = sdf(p)
+            keep = d2 < margin_m
+            if not np.any(keep):
+                continue
+            p, d2, n2 = p[keep], d2[keep], n2[keep]
+            if on_pin:  # the point on the block's surface
+                p = p - d2[:, None] * n2
+            pts.append(p)
+            nrm.append(n2)
+            gap.append(d2)
         if not gap:
             return FitContact(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
         return FitContact(np.vstack(pts), np.vstack(nrm), np.concatenate(gap))
-
-    def _circle_contacts(self, Tc: np.ndarray, radius: float, margin_m: float, sdf,
-                         on_pin: bool, pts: list, nrm: list, gap: list) -> None:
-        world = _circle(Tc, radius, self._angles)
-        d, _ = sdf(world)
-        picks = _refine(d, margin_m)
-        if not picks:
-            return
-        angles = np.array([a for a, _ in picks])
-        p = _circle(Tc, radius, angles)
-        d2, n2 = sdf(p)
-        keep = d2 < margin_m
-        if not np.any(keep):
-            return
-        p, d2, n2 = p[keep], d2[keep], n2[keep]
-        if on_pin:  # the point on the block's surface
-            p = p + d2[:, None] * (-n2)
-        pts.append(p)
-        nrm.append(n2)
-        gap.append(d2)

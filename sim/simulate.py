@@ -50,6 +50,7 @@ from ..planner.plan import AssemblyState, Plan, Step, assembly_state, state_befo
 from .bullet import BulletWorld
 from .execute import execute_step, scene_warnings
 from .fidelity import BALANCED, PRESETS, Fidelity
+from .fit_pairs import held_fit_contact
 from .gripper import CoupledGripper, GripperSpec
 from .judge import failed_outcome
 from .pose_error import PoseError, apply_pose_error
@@ -220,13 +221,16 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
                                every=fidelity.record_every_steps)
         table_size = product.resources.table.size_m
         guard = SceneGuard(cell_half_size_m=max(1.0, float(np.max(table_size))))
+        fit = (held_fit_contact(world, ids, step.part, product, geometry)
+               if fidelity.feature_contact else None)
         record, outcome = execute_step(world, gripper, ids[step.part], traj, crit,
                                        T_world_part_target=step.T_world_final,
                                        mate_axis_world=step.insertion_direction,
                                        warnings=warns,
                                        before_step=None if press is None else press.before_step,
                                        insertion_length_m=step.insertion_length_m or None,
-                                       guard=guard, carry_anchor=fidelity.carry_anchor)
+                                       guard=guard, carry_anchor=fidelity.carry_anchor,
+                                       fit_contact=fit)
     t3 = time.perf_counter()
     table = criteria_table(outcome, crit, step.insertion_direction is not None)
     return StepResult(index, step.part, step.kind, outcome, record, scene.summary(), warns,
