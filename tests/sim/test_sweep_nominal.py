@@ -51,11 +51,11 @@ def test_the_bundled_peg_goes_in_at_small_pose_errors() -> None:
     """Issue 17's done-when: the bundled peg (H7/g6, 0.5 mm chamfer) swept with small robot
     errors at BALANCED succeeds at every sample; the capture boundary (half the mean clearance
     plus the chamfer, 0.51 mm) is 10-25x these offsets. It was a strict xfail: at 0.02 mm the
-    peg 'jammed' 1.03 mm deep (slip 5.9-9.4 mm, 134-168 N), measured to come from a chamfer
-    contact kept across the fit's 8.5 um radial gap (BALANCED's 25 um contact distance; 4 um
-    inserts it). Since the hold criterion (issue 18) changed the peg's grasp and clamp force
-    both offsets insert at BALANCED; that contact is not addressed here, so this guards the
-    done-when with the current plan, not the cause."""
+    peg 'jammed' 1.03 mm deep (slip 5.9-9.4 mm, 134-168 N), from a chamfer contact Bullet kept
+    across the fit's 8.5 um radial gap (BALANCED's 25 um contact distance). Both offsets insert
+    since the hold criterion (issue 18) changed the peg's grasp; the exact fit contact
+    (sim/feature_contact.py) takes the pin's contact over during the insertion, so that
+    chamfer contact across the gap no longer exists at BALANCED."""
     from asmplan.knowledge.loader import load_product
     from asmplan.parts.models import ProductGeometry
     from asmplan.planner.product import plan_product
