@@ -67,6 +67,14 @@ FRICTION_GAP_M = 0.1e-6
 """Contact points closer than this (m) take friction; a point still closing its gap this step
 takes it from the next (friction at a point not yet touching would hold the part off it)."""
 
+REUSE_MOTION_M = 1e-6
+"""A detection is reused, its gaps updated to first order, while no point of the held body
+has moved more than this since it was made, m (the error is second order: < 1e-4 um)."""
+
+REUSE_SLIDE_M = 20e-6
+"""... and, for a single-feature detection (``FitContact.single_feature``), while it has slid
+at most this along the bore's axis (its gaps do not change under that sliding), m."""
+
 MIN_MARGIN_M = 50e-6
 """Least search margin for contact points, m (plus the step's travel)."""
 
@@ -95,12 +103,19 @@ def least_distance(G: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return y, lam
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (k, 3) arrays (np.cross's overhead dominates at k ~ 10)."""
+    return np.column_stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+                            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]])
+
+
 def _tangents(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     helper = np.where(np.abs(n[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]),
                       np.array([[0.0, 1.0, 0.0]]))
-    t1 = np.cross(n, helper)
-    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
-    return t1, np.cross(n, t1)
+    t1 = _cross(n, helper)
+    t1 /= np.sqrt(np.sum(t1 * t1, axis=1))[:, None]
+    return t1, _cross(n, t1)
 
 
 @dataclass(frozen=True)
@@ -154,6 +169,9 @@ class HeldFitContact:
         self._last = _empty_contacts()
         self._reaction: list[tuple[int, np.ndarray, np.ndarray]] = []
         self.steps_solved = 0
+        self.reused = 0
+        self._axis: np.ndarray | None = None
+        self._base: tuple[np.ndarray, FitContact, np.ndarray, float] | None = None
 
     # ------------------------------------------------------------------ switching
     def activate(self) -> None:
@@ -191,6 +209,7 @@ class HeldFitContact:
     def _detect(self, T_held: np.ndarray, margin: float) -> tuple[FitContact, np.ndarray]:
         """Contacts of every pair (normals pushing the held body) and each point's pair."""
         pts, nrm, gap, owner = [], [], [], []
+        single = True
         for i, pair in enumerate(self.pairs):
             T_other = self._T_partner[pair.partner]
             if pair.held_is_pin:
@@ -200,6 +219,7 @@ class HeldFitContact:
                 fc = pair.model.contacts(T_other, T_held, margin)
                 n = -fc.normal
             if fc.count:
+                single = single and fc.single_feature
                 pts.append(fc.point_m)
                 nrm.append(n)
                 gap.append(fc.gap_m)
@@ -207,8 +227,34 @@ class HeldFitContact:
         if not gap:
             return (FitContact(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)),
                     np.zeros(0, dtype=int))
-        return (FitContact(np.vstack(pts), np.vstack(nrm), np.concatenate(gap)),
+        return (FitContact(np.vstack(pts), np.vstack(nrm), np.concatenate(gap), single),
                 np.concatenate(owner))
+
+    def _detect_near(self, T_held: np.ndarray, margin: float) -> tuple[FitContact, np.ndarray]:
+        """:meth:`_detect`, or the last detection with its gaps moved to first order while the
+        held body has moved less than :data:`REUSE_MOTION_M` since (partners unmoved)."""
+        base = self._base
+        if base is not None and base[3] >= margin:
+            T0, found, owner, _ = base
+            dc = T_held[:3, :3] @ self._com_link + T_held[:3, 3] - (
+                T0[:3, :3] @ self._com_link + T0[:3, 3])
+            dR = T_held[:3, :3] @ T0[:3, :3].T
+            dth = 0.5 * np.array([dR[2, 1] - dR[1, 2], dR[0, 2] - dR[2, 0], dR[1, 0] - dR[0, 1]])
+            slide = 0.0
+            if found.single_feature and self._axis is not None:
+                slide = float(dc @ self._axis)
+            lateral = float(np.linalg.norm(dc - slide * (self._axis if self._axis is not None
+                                                          else 0.0)))
+            if (lateral + self._reach * float(np.linalg.norm(dth)) <= REUSE_MOTION_M
+                    and abs(slide) <= REUSE_SLIDE_M and abs(slide) <= 0.25 * margin):
+                c0 = T0[:3, :3] @ self._com_link + T0[:3, 3]
+                J = self._rows(found.point_m, found.normal, c0)
+                gap = found.gap_m + J @ np.concatenate([dc, dth])
+                self.reused += 1
+                return FitContact(found.point_m, found.normal, gap), owner
+        found, owner = self._detect(T_held, margin)
+        self._base = (T_held.copy(), found, owner, margin)
+        return found, owner
 
     def after_step(self) -> None:
         """Solve the held body's fit contact for the step Bullet just took (module docstring)."""
@@ -229,8 +275,13 @@ class HeldFitContact:
         c_prev = R_prev @ self._com_link + T_prev[:3, 3]
         travel = dt * (float(np.linalg.norm(v)) + self._reach * float(np.linalg.norm(w)))
         margin = MIN_MARGIN_M + 2.0 * travel
+        if moved:
+            self._base = None
+            axes = [p.model.bore_axis_world(self._T_partner[p.partner]) for p in self.pairs]
+            self._axis = axes[0] if all(abs(float(a @ axes[0])) > 1.0 - 1e-9
+                                        for a in axes) else None
         if self._found is None or self._found_margin < margin or moved:
-            self._found = self._detect(T_prev, margin)
+            self._found = self._detect_near(T_prev, margin)
             self._found_margin = margin
         found, owner = self._found
         self._reaction = []
@@ -252,7 +303,7 @@ class HeldFitContact:
         T_new[:3, 3] = c_new - R_new @ self._com_link
         new_margin = MIN_MARGIN_M + 4.0 * dt * (float(np.linalg.norm(u_new[:3]))
                                                + self._reach * wn)
-        after = self._detect(T_new, new_margin)
+        after = self._detect_near(T_new, new_margin)
         if after[0].count and float(np.min(after[0].gap_m)) < -PROJECTION_TOLERANCE_M:
             T_new, after = self._project(T_new, after, new_margin)
         world.set_pose(self.held_body, T_new)
@@ -297,7 +348,7 @@ class HeldFitContact:
 
     @staticmethod
     def _rows(points: np.ndarray, dirs: np.ndarray, c: np.ndarray) -> np.ndarray:
-        return np.hstack([dirs, np.cross(points - c, dirs)])
+        return np.hstack([dirs, _cross(points - c, dirs)])
 
     def _solve_velocity(self, found: FitContact, mu: np.ndarray, c: np.ndarray, u: np.ndarray,
                         Minv_sqrt: np.ndarray, dt: float):
@@ -313,8 +364,15 @@ class HeldFitContact:
         touching = found.gap_m <= FRICTION_GAP_M
         u_new = u.copy()
         Jt = np.stack([Jt1, Jt2], axis=1)  # (k, 2, 6)
+        MJt = np.einsum("ab,kib->kai", Minv, Jt)  # (k, 6, 2): Minv Jt^T per contact
+        W = np.einsum("kib,kbj->kij", Jt, MJt)  # (k, 2, 2)
+        det = W[:, 0, 0] * W[:, 1, 1] - W[:, 0, 1] * W[:, 1, 0]
+        det = np.where(np.abs(det) > 1e-300, det, 1e-300)
+        Winv = np.empty_like(W)
+        Winv[:, 0, 0], Winv[:, 1, 1] = W[:, 1, 1] / det, W[:, 0, 0] / det
+        Winv[:, 0, 1], Winv[:, 1, 0] = -W[:, 0, 1] / det, -W[:, 1, 0] / det
         for rnd in range(FRICTION_ROUNDS):
-            u_f = u + Minv @ np.einsum("kij,ki->j", Jt, p_t)
+            u_f = u + np.einsum("kai,ki->a", MJt, p_t)
             sol = least_distance(Gn, target - Jn @ u_f)
             if sol is None:  # infeasible (cannot happen for a pin in a bore): leave as is
                 break
@@ -324,15 +382,13 @@ class HeldFitContact:
             if rnd == FRICTION_ROUNDS - 1 or not np.any(cap > 0):
                 break
             for i in np.flatnonzero((cap > 0) | np.any(p_t != 0.0, axis=1)):
-                J = Jt[i]
-                W = J @ Minv @ J.T
-                old = p_t[i].copy()
-                new = old - np.linalg.solve(W + 1e-12 * np.eye(2), J @ u_new)
-                norm = float(np.linalg.norm(new))
+                old = p_t[i]
+                new = old - Winv[i] @ (Jt[i] @ u_new)
+                norm = math.hypot(new[0], new[1])
                 if norm > cap[i]:
-                    new *= cap[i] / norm if norm > 0 else 0.0
+                    new = new * (cap[i] / norm) if norm > 0 else new * 0.0
+                u_new = u_new + MJt[i] @ (new - old)
                 p_t[i] = new
-                u_new = u_new + Minv @ (J.T @ (new - old))
         norm = np.linalg.norm(p_t, axis=1)
         over = norm > mu * lam * touching
         if np.any(over):  # what the last normal solve bears

@@ -38,7 +38,7 @@ import numpy as np
 CIRCLE_SAMPLES = 96
 """Angles sampled per edge circle."""
 
-MAX_POINTS_PER_CIRCLE = 6
+MAX_POINTS_PER_CIRCLE = 4
 """Contact points kept per circle (a circle lying flat on a face gives that many, spread)."""
 
 FLAT_TOLERANCE_M = 0.2e-6
@@ -169,6 +169,8 @@ class Profile:
         j = np.argmin(dist2, axis=1)
         idx = np.arange(points.shape[0])
         d = np.sqrt(dist2[idx, j])
+        self.last_second_m = (np.sqrt(np.partition(dist2, 1, axis=1)[:, 1])
+                              if dist2.shape[1] > 1 else np.full(d.shape, np.inf))
         py, px = points[:, 1:2], points[:, 0:1]
         cond = (a[None, :, 1] > py) != (self._b[None, :, 1] > py)
         xint = a[None, :, 0] + (py - a[None, :, 1]) * self._inv_slope[None, :]
@@ -219,36 +221,49 @@ class FitContact:
     point_m: np.ndarray
     normal: np.ndarray
     gap_m: np.ndarray
+    single_feature: bool = False
+    """No sampled edge point had a second profile segment within the search margin: every
+    point's distance is to one straight meridian segment (e.g. the pin sliding along the
+    bore's wall), so the gaps are invariant under sliding along the bore's axis."""
 
     @property
     def count(self) -> int:
         return int(self.gap_m.shape[0])
 
 
-def _refine(values: np.ndarray, margin_m: float) -> list[tuple[float, bool]]:
-    """Angles (rad, with a flag for refined minima) of the contact candidates of one sampled
-    circle: its local minima below ``margin_m`` (parabola-refined), or up to
-    :data:`MAX_POINTS_PER_CIRCLE` spread points of a flat circle."""
-    n = values.size
+def _candidates(values: np.ndarray, margin_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Contact candidates of sampled circles ``values`` (C, n): (circle index, angle rad) of
+    each local minimum below ``margin_m`` (parabola-refined), or for a circle lying flat
+    (3 or more samples within :data:`FLAT_TOLERANCE_M` of its least) up to
+    :data:`MAX_POINTS_PER_CIRCLE` points spread over those samples."""
+    n = values.shape[1]
     step = 2.0 * math.pi / n
-    lo = float(np.min(values))
-    if lo >= margin_m:
-        return []
-    near = np.flatnonzero(values <= lo + FLAT_TOLERANCE_M)
-    if near.size >= 3:
-        take = near[np.linspace(0, near.size - 1, min(MAX_POINTS_PER_CIRCLE, near.size)).round()
-                    .astype(int)]
-        return [(float(i) * step, False) for i in np.unique(take)]
-    prev, nxt = np.roll(values, 1), np.roll(values, -1)
-    minima = np.flatnonzero((values <= prev) & (values < nxt) & (values < margin_m))
-    minima = minima[np.argsort(values[minima])][:MAX_POINTS_PER_CIRCLE]
-    out = []
-    for i in minima:
-        y0, y1, y2 = values[(i - 1) % n], values[i], values[(i + 1) % n]
-        den = y0 - 2.0 * y1 + y2
-        shift = 0.5 * (y0 - y2) / den if den > 0 else 0.0
-        out.append(((float(i) + max(-0.5, min(0.5, shift))) * step, True))
-    return out
+    lo = values.min(axis=1)
+    near = values <= (lo + FLAT_TOLERANCE_M)[:, None]
+    flat = (np.count_nonzero(near, axis=1) >= 3) & (lo < margin_m)
+    prev, nxt = np.roll(values, 1, axis=1), np.roll(values, -1, axis=1)
+    is_min = (values <= prev) & (values < nxt) & (values < margin_m) & ~flat[:, None]
+    rows, idx = np.nonzero(is_min)
+    y0, y1, y2 = prev[rows, idx], values[rows, idx], nxt[rows, idx]
+    den = y0 - 2.0 * y1 + y2
+    shift = np.where(den > 0, 0.5 * (y0 - y2) / np.where(den > 0, den, 1.0), 0.0)
+    angles = (idx + np.clip(shift, -0.5, 0.5)) * step
+    if rows.size > MAX_POINTS_PER_CIRCLE and np.any(np.bincount(rows) > MAX_POINTS_PER_CIRCLE):
+        keep = np.zeros(rows.size, dtype=bool)
+        for r in np.unique(rows):
+            mine = np.flatnonzero(rows == r)
+            keep[mine[np.argsort(y1[mine])[:MAX_POINTS_PER_CIRCLE]]] = True
+        rows, angles = rows[keep], angles[keep]
+    if np.any(flat):
+        extra_r, extra_a = [rows], [angles]
+        for r in np.flatnonzero(flat):
+            at = np.flatnonzero(near[r])
+            take = np.unique(at[np.linspace(0, at.size - 1, min(MAX_POINTS_PER_CIRCLE, at.size))
+                                .round().astype(int)])
+            extra_r.append(np.full(take.size, r))
+            extra_a.append(take * step)
+        rows, angles = np.concatenate(extra_r), np.concatenate(extra_a)
+    return rows, angles
 
 
 class FitContactModel:
@@ -316,24 +331,23 @@ class FitContactModel:
             return d, -(n @ Rp.T)
 
         pts, nrm, gap = [], [], []
-        pin_c = [(pp + s * Rp[:, 2], rad) for s, rad in self._pin_circles]
-        bore_c = [(pb + z * Rb[:, 2], rad) for z, rad in self._bore_circles]
-        for circles, R, sdf, on_pin in ((pin_c, Rp, pin_edge_vs_block, True),
-                                        (bore_c, Rb, block_edge_vs_pin, False)):
-            n = self._angles.size
+        single = True
+        for circles, R, origin, sdf, on_pin in (
+                (self._pin_circles, Rp, pp, pin_edge_vs_block, True),
+                (self._bore_circles, Rb, pb, block_edge_vs_pin, False)):
+            heights = np.array([h for h, _ in circles])
+            radii = np.array([rad for _, rad in circles])
+            centres = origin + heights[:, None] * R[:, 2]  # (C, 3)
             ring = self._cos[:, None] * R[:, 0] + self._sin[:, None] * R[:, 1]  # (n, 3)
-            world = np.vstack([c + rad * ring for c, rad in circles])
+            world = (centres[:, None, :] + radii[:, None, None] * ring[None]).reshape(-1, 3)
             d_all, _ = sdf(world)
-            chosen: list[np.ndarray] = []
-            for i, (c, rad) in enumerate(circles):
-                picks = _refine(d_all[i * n:(i + 1) * n], margin_m)
-                if picks:
-                    ang = np.array([a for a, _ in picks])
-                    chosen.append(c + rad * (np.cos(ang)[:, None] * R[:, 0]
-                                             + np.sin(ang)[:, None] * R[:, 1]))
-            if not chosen:
+            prof = self._bore_profile if on_pin else self._pin_profile
+            single = single and not bool(np.any(prof.last_second_m < margin_m))
+            rows, ang = _candidates(d_all.reshape(len(circles), -1), margin_m)
+            if rows.size == 0:
                 continue
-            p = np.vstack(chosen)
+            p = centres[rows] + radii[rows, None] * (np.cos(ang)[:, None] * R[:, 0]
+                                                     + np.sin(ang)[:, None] * R[:, 1])
             d2, n2 = sdf(p)
             keep = d2 < margin_m
             if not np.any(keep):
@@ -346,4 +360,8 @@ class FitContactModel:
             gap.append(d2)
         if not gap:
             return FitContact(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
-        return FitContact(np.vstack(pts), np.vstack(nrm), np.concatenate(gap))
+        return FitContact(np.vstack(pts), np.vstack(nrm), np.concatenate(gap), single)
+
+    def bore_axis_world(self, T_world_bore_body: np.ndarray) -> np.ndarray:
+        """The bore's axis (unit, outward) in the world."""
+        return T_world_bore_body[:3, :3] @ self._T_link_bore[:3, 2]

@@ -21,6 +21,10 @@ RIM_WIDTH_M = 2e-3
 """How far beyond the mouth chamfer the block's face is modelled (at most the pin's radius and
 never beyond the face's own extent), m: a pose error up to that still finds the face."""
 
+SEAT_INSET_M = 0.5e-3
+"""The shoulder circle that seats on the face lies this far inside the modelled face's edge
+(so that it is one feature from it, :attr:`FitContact.single_feature`), m."""
+
 SHOULDER_MIN_STEP_M = 0.05e-3
 """A pin part seats on its shoulder when its solid reaches this much beyond the pin's radius in
 the root plane."""
@@ -58,7 +62,7 @@ def fit_model(pin: Feature, hole: Feature, pin_diameter_m: float, hole_diameter_
     if pin_vertices is not None:
         shoulder = _radial_extent(pin_vertices, pin.origin_m, pin.axis, 0.0)
         if shoulder > r + SHOULDER_MIN_STEP_M:
-            seat = min(shoulder, rim - 1e-6)
+            seat = min(shoulder, rim - SEAT_INSET_M)
             if seat <= R + hole.chamfer_m:
                 seat = 0.0
     return FitContactModel(
