@@ -44,6 +44,11 @@ MAX_POINTS_PER_CIRCLE = 4
 FLAT_TOLERANCE_M = 0.2e-6
 """Samples of one circle within this of its least distance count as one flat contact."""
 
+FACE_ENTRY_M = 0.5e-6
+"""A penetration this shallow below a face (the block's top face under a pin edge, the pin's
+end face above a mouth edge) is resolved back through that face, m (see
+:meth:`FitContactModel.contacts`)."""
+
 _FAR = 1.0  # m: "infinitely" far along a profile (the profiles are local)
 
 
@@ -169,6 +174,7 @@ class Profile:
         j = np.argmin(dist2, axis=1)
         idx = np.arange(points.shape[0])
         d = np.sqrt(dist2[idx, j])
+        self.last_segment = j
         self.last_second_m = (np.sqrt(np.partition(dist2, 1, axis=1)[:, 1])
                               if dist2.shape[1] > 1 else np.full(d.shape, np.inf))
         py, px = points[:, 1:2], points[:, 0:1]
@@ -231,7 +237,8 @@ class FitContact:
         return int(self.gap_m.shape[0])
 
 
-def _candidates(values: np.ndarray, margin_m: float) -> tuple[np.ndarray, np.ndarray]:
+def _candidates(values: np.ndarray, margin_m: float, segments: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Contact candidates of sampled circles ``values`` (C, n): (circle index, angle rad) of
     each local minimum below ``margin_m`` (parabola-refined), or for a circle lying flat
     (3 or more samples within :data:`FLAT_TOLERANCE_M` of its least) up to
@@ -257,11 +264,18 @@ def _candidates(values: np.ndarray, margin_m: float) -> tuple[np.ndarray, np.nda
     if np.any(flat):
         extra_r, extra_a = [rows], [angles]
         for r in np.flatnonzero(flat):
-            at = np.flatnonzero(near[r])
-            take = np.unique(at[np.linspace(0, at.size - 1, min(MAX_POINTS_PER_CIRCLE, at.size))
-                                .round().astype(int)])
-            extra_r.append(np.full(take.size, r))
-            extra_a.append(take * step)
+            # spread over each profile segment the flat samples lie on (a pin end face lying
+            # on both the block's face and, across the mouth, the bore's edge gets support
+            # points on each)
+            groups = ([np.flatnonzero(near[r])] if segments is None else
+                      [np.flatnonzero(near[r] & (segments[r] == g))
+                       for g in np.unique(segments[r][near[r]])])
+            for at in groups:
+                take = np.unique(at[np.linspace(0, at.size - 1,
+                                                min(MAX_POINTS_PER_CIRCLE, at.size))
+                                    .round().astype(int)])
+                extra_r.append(np.full(take.size, r))
+                extra_a.append(take * step)
         rows, angles = np.concatenate(extra_r), np.concatenate(extra_a)
     return rows, angles
 
@@ -343,7 +357,8 @@ class FitContactModel:
             d_all, _ = sdf(world)
             prof = self._bore_profile if on_pin else self._pin_profile
             single = single and not bool(np.any(prof.last_second_m < margin_m))
-            rows, ang = _candidates(d_all.reshape(len(circles), -1), margin_m)
+            rows, ang = _candidates(d_all.reshape(len(circles), -1), margin_m,
+                                    prof.last_segment.reshape(len(circles), -1))
             if rows.size == 0:
                 continue
             p = centres[rows] + radii[rows, None] * (np.cos(ang)[:, None] * R[:, 0]
@@ -353,6 +368,18 @@ class FitContactModel:
             if not np.any(keep):
                 continue
             p, d2, n2 = p[keep], d2[keep], n2[keep]
+            # a point just inside the other solid through a face came from that face's side
+            # (the pin comes down onto the block's face; the mouth edge meets the pin's end
+            # face from below): it leaves the way it came, not sideways into the bore
+            axis = Rb[:, 2] if on_pin else Rp[:, 2]
+            height = (p - (pb if on_pin else pp)) @ axis
+            via_face = (d2 < 0.0) & (np.abs(height) <= FACE_ENTRY_M) & (
+                height <= 0.0 if on_pin else height >= 0.0)
+            if np.any(via_face):
+                n2 = n2.copy()
+                d2 = d2.copy()
+                n2[via_face] = axis
+                d2[via_face] = height[via_face] if on_pin else -height[via_face]
             if on_pin:  # the point on the block's surface
                 p = p - d2[:, None] * n2
             pts.append(p)
