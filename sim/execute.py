@@ -182,8 +182,9 @@ def execute_step(
         fidelity has ``friction_anchor`` (anchors throughout).
     fit_contact : HeldFitContact, optional
         The exact contact of the part's fits (:mod:`asmplan.sim.feature_contact`): switched on
-        at the first step of "lower" and kept to the end; its points join Bullet's in every
-        contact criterion (insertion force, penetration, two-point evidence).
+        before the first step and kept to the end (it costs nothing while the pin is away from
+        its bore); its points join Bullet's in every contact criterion (insertion force,
+        penetration, two-point evidence).
 
     Returns
     -------
@@ -252,7 +253,9 @@ def execute_step(
     carry_anchor = carry_anchor and not fid.friction_anchor
     anchored = False
     set_down = False  # the part touched something but the fingers in "lower"
-    fit_from = next((j for j in range(n_steps) if is_lower[j]), n_steps)
+    # switched on before the first step: changing Bullet's collision filter of a body drops
+    # its contact manifolds (a gripped part's pads lost theirs and sank 0.2 mm into it)
+    fit_from = 0
 
     def part_contacts() -> Contacts:
         con = world.contacts(part_body)

@@ -176,10 +176,10 @@ class Fidelity:
         creeping slower than 10 um/s is held where it is.
     feature_contact : bool
         Exact feature-level contact for the held part's cylindrical fits during the insertion
-        (:mod:`asmplan.sim.feature_contact`): from the start of the "lower" phase Bullet's
-        contact between the held part and its mate partners is off and the pin in its bore is
-        solved on the declared geometry (diameters as built, chamfers, depth), exactly in the
-        wedge. BALANCED and ACCURATE: True; FAST: False (coarse on purpose).
+        (:mod:`asmplan.sim.feature_contact`): for the whole step Bullet's contact between the
+        held part and its mate partners is off and the pin in its bore is solved on the
+        declared geometry (diameters as built, chamfers, depth), exactly in the wedge.
+        BALANCED and ACCURATE: True; FAST: False (coarse on purpose, unchanged).
 """
 
     name: str
