@@ -38,9 +38,16 @@ the pin in its bore itself, on the exact geometry of :mod:`asmplan.sim.fit_geome
 
 Scope. Only the pin and the bore of the declared mate are modelled between the two bodies,
 plus the part's shoulder (``PinFeature.seat_radius_m``) on the block's face: other geometry of
-the same two bodies does not touch while the model is on (it is switched on at the start of
-the "lower" phase, when the pin is above its hole). The fingers and every other body keep
-Bullet's contact.
+the same two bodies does not touch while the model is on (:func:`asmplan.sim.execute.execute_step`
+switches it on before the step's first physics step: changing a body's collision filter later
+drops its contact manifolds, and a gripped part's pads sank 0.2 mm into it). The fingers and
+every other body keep Bullet's contact.
+
+Known limits (measured, open): Bullet's pads on the carried pin are solved a step apart from
+this model, so the pin's stop at first contact with the rim reaches the pads one step late
+(pad penetration up to 0.34 mm when a pin lands on an unchamfered rim at 10 mm/s); and an
+unchamfered pin overlapping the face by only a few micrometres (c = 5-10 um, 1x c off) is
+captured where the converged reference keeps it on the rim (docs/physics.md).
 """
 
 from __future__ import annotations
