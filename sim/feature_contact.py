@@ -57,7 +57,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import nnls
 
 from ..knowledge.frames import rotation_about
 from .bullet import BulletWorld
@@ -94,6 +93,8 @@ def least_distance(G: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray
     (y, lambda) or None
         The solution and the multipliers (y = G^T lambda, lambda >= 0); None when infeasible.
     """
+    from scipy.optimize import nnls  # here: a run without the fit contact imports no scipy
+
     k, n = G.shape
     if k == 0 or np.all(h <= 0.0):
         return np.zeros(n), np.zeros(k)
