@@ -45,9 +45,9 @@ every other body keep Bullet's contact.
 
 Known limits (measured, open): Bullet's pads on the carried pin are solved a step apart from
 this model, so the pin's stop at first contact with the rim reaches the pads one step late
-(pad penetration up to 0.34 mm when a pin lands on an unchamfered rim at 10 mm/s); and an
-unchamfered pin overlapping the face by only a few micrometres (c = 5-10 um, 1x c off) is
-captured where the converged reference keeps it on the rim (docs/physics.md).
+(pad penetration up to 0.34 mm when a pin lands on an unchamfered rim at 10 mm/s); and the
+block's face is modelled only 2 mm beyond the mouth, so a pin landing farther off sinks into
+the face (docs/physics.md, "Open").
 """
 
 from __future__ import annotations
