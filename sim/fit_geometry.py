@@ -49,10 +49,6 @@ FACE_ENTRY_M = 0.5e-6
 end face above a mouth edge) is resolved back through that face, m (see
 :meth:`FitContactModel.contacts`)."""
 
-TIP_CROSSING_MAX_TILT_RAD = math.radians(5.0)
-"""The crossing rule of :meth:`FitContactModel._tip_crossing` applies while the pin's axis is
-within this of the bore's (the tip circle then lies nearly in the face's plane)."""
-
 _FAR = 1.0  # m: "infinitely" far along a profile (the profiles are local)
 
 
@@ -331,28 +327,6 @@ class FitContactModel:
         lateral = float(np.linalg.norm(rel - (zb @ rel) * zb))
         return lateral > self._far + self.pin.length_m * lean + margin_m
 
-    def _tip_crossing(self, Tp: np.ndarray, Tb: np.ndarray, p: np.ndarray, rows: np.ndarray,
-                      height: np.ndarray) -> np.ndarray:
-        """Mouth-edge points beside the pin's tip circle, at its level, where the two circles
-        cross in plan view (the tip overlaps the rim: pin off the axis by more than the mouth
-        radius minus the tip radius). Two crossing edges touch with the normal across both
-        tangents, the pin's axis; a point-against-surface distance would give a sideways
-        normal there (the pin's side wall beside the mouth edge) and lever an unchamfered pin
-        off the rim into the bore (measured: d 6 mm, c 5 um, 5 um off went in; the reference
-        and the capture geometry keep it on the rim)."""
-        out = np.zeros(len(p), dtype=bool)
-        zb, zp = Tb[:3, 2], Tp[:3, 2]
-        if float(zb @ zp) < math.cos(TIP_CROSSING_MAX_TILT_RAD):
-            return out
-        r_tip = self._pin_circles[0][1]
-        rel = Tp[:3, 3] - Tb[:3, 3]
-        e = float(np.linalg.norm(rel - (zb @ rel) * zb))
-        if e <= self._bore_circles[0][1] - r_tip:
-            return out
-        q = p - Tp[:3, 3]
-        radial = np.linalg.norm(q - np.outer(q @ zp, zp), axis=1)
-        return (rows == 0) & (np.abs(height) <= FACE_ENTRY_M) & (radial >= r_tip)
-
     def contacts(self, T_world_pin_body: np.ndarray, T_world_bore_body: np.ndarray,
                  margin_m: float) -> FitContact:
         """Contact points with a gap below ``margin_m`` (m) at these body poses."""
@@ -401,8 +375,6 @@ class FitContactModel:
             height = (p - (pb if on_pin else pp)) @ axis
             via_face = (d2 < 0.0) & (np.abs(height) <= FACE_ENTRY_M) & (
                 height <= 0.0 if on_pin else height >= 0.0)
-            if not on_pin:
-                via_face = via_face | self._tip_crossing(Tp, Tb, p, rows[keep], height)
             if np.any(via_face):
                 n2 = n2.copy()
                 d2 = d2.copy()
