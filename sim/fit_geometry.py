@@ -49,6 +49,16 @@ FACE_ENTRY_M = 0.5e-6
 end face above a mouth edge) is resolved back through that face, m (see
 :meth:`FitContactModel.contacts`)."""
 
+EDGE_EDGE_M = 1e-6
+"""A sampled edge point whose nearest point on the other solid lies within this of one of that
+solid's convex edges (a profile vertex: the mouth circle, the pin's tip circle) touches that
+edge: two edges touch, and their contact normal is the cross product of the two circles'
+tangents (see :meth:`FitContactModel.contacts`), m."""
+
+EDGE_PARALLEL_SIN = 1e-6
+"""Below this sine of the angle between the two edges' tangents the edges run parallel (a pin
+concentric in its bore at the mouth) and the point-to-surface normal is kept."""
+
 _FAR = 1.0  # m: "infinitely" far along a profile (the profiles are local)
 
 
@@ -158,6 +168,16 @@ class Profile:
         if 0.5 * np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]) < 0:
             seg_n = -seg_n
         self._seg_n = seg_n
+        # convex vertices (material angle < 180 deg) and their outward bisectors: the edges
+        # of the solid of revolution (vertex i joins segment i - 1 and segment i)
+        prev_ab = np.roll(self._ab, 1, axis=0)
+        turn = prev_ab[:, 0] * self._ab[:, 1] - prev_ab[:, 1] * self._ab[:, 0]
+        ccw = 0.5 * np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]) > 0
+        self.vertex_convex = (turn > 0) if ccw else (turn < 0)
+        bis = np.roll(seg_n, 1, axis=0) + seg_n
+        self.vertex_bisector = bis / np.maximum(np.linalg.norm(bis, axis=1, keepdims=True),
+                                                1e-300)
+        self._seg_len = np.sqrt(self._ab2)
         horizontal = self._ab[:, 1] == 0.0
         self._inv_slope = np.where(horizontal, 0.0, self._ab[:, 0]
                                    / np.where(horizontal, 1.0, self._ab[:, 1]))
@@ -175,6 +195,7 @@ class Profile:
         idx = np.arange(points.shape[0])
         d = np.sqrt(dist2[idx, j])
         self.last_segment = j
+        self.last_t = t[idx, j]
         self.last_second_m = (np.sqrt(np.partition(dist2, 1, axis=1)[:, 1])
                               if dist2.shape[1] > 1 else np.full(d.shape, np.inf))
         py, px = points[:, 1:2], points[:, 0:1]
@@ -186,6 +207,19 @@ class Profile:
         out = np.where(safe[:, None], diff[idx, j] / np.where(safe, d, 1.0)[:, None], seg_n)
         out = np.where(inside[:, None] & safe[:, None], -out, out)
         return np.where(inside, -d, d), out
+
+
+    def near_convex_vertex(self, tol_m: float) -> np.ndarray:
+        """For the points of the last :meth:`sdf` call: the convex vertex (index) whose
+        nearest boundary point lies within ``tol_m`` of it, else -1."""
+        j, t = self.last_segment, self.last_t
+        length = self._seg_len[j]
+        k = self.polygon.shape[0]
+        v = np.where(t * length <= tol_m, j, np.where((1.0 - t) * length <= tol_m,
+                                                      (j + 1) % k, -1))
+        ok = (v >= 0) & (length > 2.0 * tol_m)
+        ok[ok] &= self.vertex_convex[v[ok]]
+        return np.where(ok, v, -1)
 
 
 def polygon_sdf(points: np.ndarray, polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -305,6 +339,10 @@ class FitContactModel:
             self._pin_circles.append((pin.length_m, pin.seat_radius_m))
         R, ch = bore.radius_m, bore.chamfer_m
         self._bore_circles = [(0.0, R + ch)] + ([(-ch, R)] if ch > 0 else [])
+        # each edge circle's vertex in its own profile (-1: the seat circle is not in it)
+        self._pin_vertex = [1] + ([2] if cp > 0 else []) + ([-1] if pin.seat_radius_m > 0
+                                                              else [])
+        self._bore_vertex = [1] + ([2] if ch > 0 else [])
         self._far = bore.rim_radius_m + max(rad for _, rad in self._pin_circles)
 
     def frames(self, T_world_pin_body: np.ndarray, T_world_bore_body: np.ndarray
@@ -368,6 +406,12 @@ class FitContactModel:
             if not np.any(keep):
                 continue
             p, d2, n2 = p[keep], d2[keep], n2[keep]
+            vertex = prof.near_convex_vertex(EDGE_EDGE_M)[keep]
+            if np.any(vertex >= 0):
+                own = np.asarray(self._pin_vertex if on_pin else self._bore_vertex)[rows[keep]]
+                n2 = self._edge_edge(p, n2, vertex, own, on_pin,
+                                     self._pin_profile if on_pin else self._bore_profile,
+                                     prof, Rp, pp, Rb, pb)
             # a point just inside the other solid through a face came from that face's side
             # (the pin comes down onto the block's face; the mouth edge meets the pin's end
             # face from below): it leaves the way it came, not sideways into the bore
@@ -388,6 +432,75 @@ class FitContactModel:
         if not gap:
             return FitContact(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
         return FitContact(np.vstack(pts), np.vstack(nrm), np.concatenate(gap), single)
+
+    @staticmethod
+    def _edge_edge(p: np.ndarray, n2: np.ndarray, vertex: np.ndarray, own_vertex: np.ndarray,
+                   on_pin: bool, own_prof: Profile, prof: Profile, Rp: np.ndarray,
+                   pp: np.ndarray, Rb: np.ndarray, pb: np.ndarray) -> np.ndarray:
+        """Normals of sampled edge points ``p`` (their circle: ``own_vertex`` of their own
+        profile, -1 for the shoulder's seat circle) touching an edge of the other solid (its
+        convex profile ``vertex``, -1 where none).
+
+        Where two edges cross, the point-to-surface direction is ill-defined: where the pin's
+        tip circle crosses the mouth circle in plan view (a pin over the rim by less than a
+        micrometre) it came out sideways and levered an unchamfered pin off the rim into the
+        bore (fits bench, 5 um fit 5 um off). The cross product of the two circles' tangents
+        is the ideal edges' normal, but where they cross at a shallow angle (a few 1e-4 rad
+        there) a tilt of the same size turns it by tens of degrees: the contact is in fact the
+        two faces meeting across the sliver between the circles (the pin's end face on the
+        block's face). So the normal is the bisector of the two faces that meet: of each
+        edge's two faces, the one facing the other edge along the cross product."""
+        sel = np.flatnonzero((vertex >= 0) & (own_vertex >= 0))
+        if sel.size == 0:
+            return n2
+        own_axis, own_origin, own_R = (Rp[:, 2], pp, Rp) if on_pin else (Rb[:, 2], pb, Rb)
+        other_axis, other_origin, other_R = (Rb[:, 2], pb, Rb) if on_pin else (Rp[:, 2], pp, Rp)
+        q = p[sel]
+
+        def unit(v: np.ndarray) -> np.ndarray:
+            return v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+
+        t_own = unit(np.cross(own_axis, q - own_origin))
+        t_other = unit(np.cross(other_axis, q - other_origin))
+        cross = np.cross(t_own, t_other)
+        size = np.linalg.norm(cross, axis=1)
+        use = size > EDGE_PARALLEL_SIN
+        if not np.any(use):
+            return n2
+        sel, q, cross = sel[use], q[use], cross[use] / size[use, None]
+
+        def faces(profile: Profile, v: np.ndarray, origin: np.ndarray, R: np.ndarray,
+                  sign: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            """World push directions (sign x outward) of the two faces at vertex ``v`` and
+            the bisector, in the meridian plane of each point."""
+            rel = (q - origin) @ R
+            rho = np.hypot(rel[:, 0], rel[:, 1])
+            ok = rho > 1e-12
+            radial = np.zeros_like(rel)
+            radial[:, 0] = np.where(ok, rel[:, 0] / np.where(ok, rho, 1.0), 1.0)
+            radial[:, 1] = np.where(ok, rel[:, 1] / np.where(ok, rho, 1.0), 0.0)
+            z = np.array([0.0, 0.0, 1.0])
+
+            def world(n2d: np.ndarray) -> np.ndarray:
+                return sign * ((n2d[:, :1] * radial + n2d[:, 1:] * z) @ R.T)
+
+            k = profile.polygon.shape[0]
+            return (world(profile._seg_n[(v - 1) % k]), world(profile._seg_n[v]),
+                    world(profile.vertex_bisector[v]))
+
+        # push directions on the pin: the block's outward normals, minus the pin's
+        other_sign, own_sign = (1.0, -1.0) if on_pin else (-1.0, 1.0)
+        oa, ob, obis = faces(prof, vertex[sel], other_origin, other_R, other_sign)
+        wa, wb, _ = faces(own_prof, own_vertex[sel], own_origin, own_R, own_sign)
+        cross *= np.where(np.sum(cross * obis, axis=1) >= 0.0, 1.0, -1.0)[:, None]
+
+        def facing(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+            pick = np.sum(a * cross, axis=1) >= np.sum(b * cross, axis=1)
+            return np.where(pick[:, None], a, b)
+
+        out = n2.copy()
+        out[sel] = unit(facing(oa, ob) + facing(wa, wb))
+        return out
 
     def bore_axis_world(self, T_world_bore_body: np.ndarray) -> np.ndarray:
         """The bore's axis (unit, outward) in the world."""
