@@ -409,7 +409,7 @@ class FitContactModel:
             vertex = prof.near_convex_vertex(EDGE_EDGE_M)[keep]
             if np.any(vertex >= 0):
                 own = np.asarray(self._pin_vertex if on_pin else self._bore_vertex)[rows[keep]]
-                n2 = self._edge_edge(p, n2, vertex, own, on_pin,
+                d2, n2 = self._edge_edge(p, d2, n2, vertex, own, on_pin,
                                      self._pin_profile if on_pin else self._bore_profile,
                                      prof, Rp, pp, Rb, pb)
             # a point just inside the other solid through a face came from that face's side
@@ -434,9 +434,10 @@ class FitContactModel:
         return FitContact(np.vstack(pts), np.vstack(nrm), np.concatenate(gap), single)
 
     @staticmethod
-    def _edge_edge(p: np.ndarray, n2: np.ndarray, vertex: np.ndarray, own_vertex: np.ndarray,
-                   on_pin: bool, own_prof: Profile, prof: Profile, Rp: np.ndarray,
-                   pp: np.ndarray, Rb: np.ndarray, pb: np.ndarray) -> np.ndarray:
+    def _edge_edge(p: np.ndarray, d2: np.ndarray, n2: np.ndarray, vertex: np.ndarray,
+                   own_vertex: np.ndarray, on_pin: bool, own_prof: Profile, prof: Profile,
+                   Rp: np.ndarray, pp: np.ndarray, Rb: np.ndarray, pb: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
         """Normals of sampled edge points ``p`` (their circle: ``own_vertex`` of their own
         profile, -1 for the shoulder's seat circle) touching an edge of the other solid (its
         convex profile ``vertex``, -1 where none).
@@ -466,7 +467,7 @@ class FitContactModel:
         size = np.linalg.norm(cross, axis=1)
         use = size > EDGE_PARALLEL_SIN
         if not np.any(use):
-            return n2
+            return d2, n2
         sel, q, cross = sel[use], q[use], cross[use] / size[use, None]
 
         def faces(profile: Profile, v: np.ndarray, origin: np.ndarray, R: np.ndarray,
@@ -485,22 +486,27 @@ class FitContactModel:
                 return sign * ((n2d[:, :1] * radial + n2d[:, 1:] * z) @ R.T)
 
             k = profile.polygon.shape[0]
+            vx = profile.polygon[v]
+            corner = origin + (vx[:, :1] * radial + vx[:, 1:] * z) @ R.T
             return (world(profile._seg_n[(v - 1) % k]), world(profile._seg_n[v]),
-                    world(profile.vertex_bisector[v]))
+                    world(profile.vertex_bisector[v]), corner)
 
         # push directions on the pin: the block's outward normals, minus the pin's
         other_sign, own_sign = (1.0, -1.0) if on_pin else (-1.0, 1.0)
-        oa, ob, obis = faces(prof, vertex[sel], other_origin, other_R, other_sign)
-        wa, wb, _ = faces(own_prof, own_vertex[sel], own_origin, own_R, own_sign)
+        oa, ob, obis, corner = faces(prof, vertex[sel], other_origin, other_R, other_sign)
+        wa, wb, _, _ = faces(own_prof, own_vertex[sel], own_origin, own_R, own_sign)
         cross *= np.where(np.sum(cross * obis, axis=1) >= 0.0, 1.0, -1.0)[:, None]
 
         def facing(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             pick = np.sum(a * cross, axis=1) >= np.sum(b * cross, axis=1)
             return np.where(pick[:, None], a, b)
 
-        out = n2.copy()
-        out[sel] = unit(facing(oa, ob) + facing(wa, wb))
-        return out
+        n_new = unit(facing(oa, ob) + facing(wa, wb))
+        out, gap = n2.copy(), d2.copy()
+        out[sel] = n_new
+        # pin point minus block point along the push on the pin
+        gap[sel] = np.sum(((q - corner) if on_pin else (corner - q)) * n_new, axis=1)
+        return gap, out
 
     def bore_axis_world(self, T_world_bore_body: np.ndarray) -> np.ndarray:
         """The bore's axis (unit, outward) in the world."""
