@@ -453,9 +453,20 @@ class FitContactModel:
         edge's two faces, the one facing the other edge along the cross product."""
         sel = np.flatnonzero((vertex >= 0) & (own_vertex >= 0))
         if sel.size == 0:
-            return n2
+            return d2, n2
         own_axis, own_origin, own_R = (Rp[:, 2], pp, Rp) if on_pin else (Rb[:, 2], pb, Rb)
         other_axis, other_origin, other_R = (Rb[:, 2], pb, Rb) if on_pin else (Rp[:, 2], pp, Rp)
+        # only where the two circles cross seen along the other's axis (the end face overlaps
+        # the other's face there); circles touching from inside (a pin against the wall at
+        # the mouth) keep the point-to-surface normal: the side meets the wall
+        own_rz = own_prof.polygon[own_vertex[sel]]
+        rel_c = own_origin + own_rz[:, 1:] * own_axis - other_origin
+        ecc = np.linalg.norm(rel_c - np.outer(rel_c @ other_axis, other_axis), axis=1)
+        rho_other = prof.polygon[vertex[sel], 0]
+        crossing = (ecc > np.abs(rho_other - own_rz[:, 0])) & (ecc < rho_other + own_rz[:, 0])
+        sel = sel[crossing]
+        if sel.size == 0:
+            return d2, n2
         q = p[sel]
 
         def unit(v: np.ndarray) -> np.ndarray:
