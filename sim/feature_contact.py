@@ -298,8 +298,21 @@ class HeldFitContact:
             self._T_prev = world.pose(self.held_body)
             self._found = None
             return
-        Minv_sqrt = self._minv_sqrt(R_prev)
         u = np.concatenate([v, w])
+        if float(np.min(found.gap_m)) > FRICTION_GAP_M:
+            # approaching: when the step Bullet took meets nothing, it stands. The linearised
+            # gaps would stop a point passing beside an edge (a pin's corner entering its bore
+            # 0.4 um inside the mouth edge: its gap to that edge points up until the corner is
+            # past; the pin stopped in one step from 64 mm/s and the pads, a step behind,
+            # sank 0.34 mm into it)
+            T_step = world.pose(self.held_body)
+            at = self._detect(T_step, MIN_MARGIN_M)[0]
+            if at.count == 0 or float(np.min(at.gap_m)) >= 0.0:
+                self._T_prev = T_step
+                self._found = None
+                self._last = _empty_contacts()
+                return
+        Minv_sqrt = self._minv_sqrt(R_prev)
         mu = self.friction[owner]
         u_new, lam_n, p_t, t1, t2 = self._solve_velocity(found, mu, c_prev, u, Minv_sqrt, dt)
         # re-integrate from the pre-step pose with the corrected velocity
