@@ -47,13 +47,7 @@ def test_press_handovers_and_only_they_get_friction_anchors(hinge) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("part", ["bushing_a", pytest.param("bushing_b", marks=pytest.mark.xfail(
-    strict=True, reason=(
-        "session 6 integration regression (synchronised jaws + hold criterion; passed on the "
-        "fits branch alone): at BALANCED bushing_b jams 1.50 mm into its 14 mm seat (tilt "
-        "2.64 deg) with 1.255 mm unresolved contact penetration at the first bore contact; the "
-        "grip holds 2 mu F = 47.9 N against at most 13.4 N, so it is the insertion contact, not "
-        "the grip (issue 17)")))])
+@pytest.mark.parametrize("part", ["bushing_a", "bushing_b"])
 def test_the_hinge_bushings_are_carried_and_pressed_home_at_balanced(hinge, part) -> None:
     from asmplan.sim.simulate import simulate_step
 
