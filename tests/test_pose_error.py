@@ -19,12 +19,6 @@ def _unchamfered_peg(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "session 6 integration regression (hold criterion + synchronised jaws): the unchamfered "
-    "peg stops on the rim as it should, but with the hold criterion's 0.48 N clamp the pads "
-    "slide 5.7 mm down it, it tips 6.5 mm off the axis at 4.08 s, is driven into the block "
-    "(9.3 mm) and thrown out at 1.53 m/s: the verdict is 'unstable' where 'rim_stop' is right "
-    "(issue 16)"))
 def test_half_a_millimetre_off_without_chamfer_stops_on_the_rim(tmp_path, capsys):
     """H7/g6 (5-29 um diametral) without chamfers: 0.5 mm off is far outside the capture
     boundary |e0| < c/2; 0.005 mm is inside it. (0.05 mm is outside it too: it stops on the
