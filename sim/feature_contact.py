@@ -44,10 +44,9 @@ drops its contact manifolds, and a gripped part's pads sank 0.2 mm into it). The
 every other body keep Bullet's contact.
 
 Known limits (measured, open): Bullet's pads on the carried pin are solved a step apart from
-this model, so the pin's stop at first contact with the rim reaches the pads one step late
-(pad penetration up to 0.34 mm when a pin lands on an unchamfered rim at 10 mm/s); and the
-block's face is modelled only 2 mm beyond the mouth, so a pin landing farther off sinks into
-the face (docs/physics.md, "Open").
+this model (a step into free space is kept as Bullet took it, so an approaching pin is not
+stopped by a linearised edge gap); the block's face is a disc out to the solid's farthest
+vertex (docs/physics.md, "Exact fit contact").
 """
 
 from __future__ import annotations
