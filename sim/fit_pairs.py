@@ -4,6 +4,8 @@ diameters as built, :attr:`asmplan.parts.models.ProductGeometry.sizing`).
 
 A partner is modelled only when every mate the held part has with it can be (a clearance as
 built > 0): Bullet's contact with that partner is switched off as a whole while the model is on.
+So the pin part's coaxial features beyond the mated pin's tip (:func:`leading_features`, a
+stepped shaft's thinner end) are modelled in the same bore too: they enter it first.
 """
 
 from __future__ import annotations
@@ -79,6 +81,29 @@ def fit_model(pin: Feature, hole: Feature, pin_diameter_m: float, hole_diameter_
                     face_rim))
 
 
+LEADING_TOL_M = 1e-6
+"""A feature is coaxial with a pin, and starts at its tip, within this distance, m."""
+
+
+def leading_features(product: Product, pin: Feature) -> tuple[Feature, ...]:
+    """The pin part's other pin or shaft features that lie beyond ``pin``'s tip on its axis
+    (a stepped shaft's thinner end, e.g. gear_unit's ``tail`` beyond ``front``): they enter the
+    bore before ``pin`` does, and Bullet's contact between the two bodies is off while the
+    model is on, so the bore must meet them too."""
+    tip = pin.origin_m + pin.length_m * pin.axis
+    out = []
+    for f in product.part(pin.part).features:
+        if f.name == pin.name or f.kind not in ("pin", "shaft"):
+            continue
+        rel = f.origin_m - tip
+        along = float(rel @ pin.axis)
+        off_axis = float(np.linalg.norm(rel - along * pin.axis))
+        if (float(f.axis @ pin.axis) > 1.0 - 1e-9 and off_axis <= LEADING_TOL_M
+                and along >= -LEADING_TOL_M):
+            out.append(f)
+    return tuple(out)
+
+
 def held_fit_contact(world: BulletWorld, ids: Mapping[str, int], held: str, product: Product,
                      geometry) -> HeldFitContact | None:
     """The exact fit contact of ``held``'s mates with the parts in the world (``ids``: part
@@ -106,9 +131,18 @@ def held_fit_contact(world: BulletWorld, ids: Mapping[str, int], held: str, prod
             model = fit_model(pin, hole, d, D, geometry.feature_depth(hole),
                               np.asarray(geometry.mesh(mate.pin_part).vertices, float),
                               np.asarray(geometry.mesh(mate.hole_part).vertices, float))
+            mu = world.lateral_friction(ids[held]) * world.lateral_friction(ids[other])
             pairs.append(FitPair(ids[other], model, held_is_pin=mate.pin_part == held))
-            friction.append(world.lateral_friction(ids[held])
-                            * world.lateral_friction(ids[other]))
+            friction.append(mu)
+            for lead in leading_features(product, pin):
+                d_lead = geometry.sizing.diameter(lead)
+                if d_lead < D:
+                    # no shoulder (the mated pin's own solid follows it into the bore)
+                    pairs.append(FitPair(ids[other], fit_model(
+                        lead, hole, d_lead, D, geometry.feature_depth(hole), None,
+                        np.asarray(geometry.mesh(mate.hole_part).vertices, float)),
+                        held_is_pin=mate.pin_part == held))
+                    friction.append(mu)
     if not pairs:
         return None
     return HeldFitContact(world, ids[held], pairs, friction)
