@@ -253,9 +253,8 @@ def execute_step(
     carry_anchor = carry_anchor and not fid.friction_anchor
     anchored = False
     set_down = False  # the part touched something but the fingers in "lower"
-    # switched on before the first step (unless the caller did earlier, before making the
-    # gripper: asmplan.sim.simulate): changing Bullet's collision filter of a body drops its
-    # contact manifolds (a gripped part's pads lost theirs and sank 0.2 mm into it)
+    # switched on before the first step: changing Bullet's collision filter of a body drops
+    # its contact manifolds (a gripped part's pads lost theirs and sank 0.2 mm into it)
     fit_from = 0
 
     def part_contacts() -> Contacts:

@@ -213,16 +213,6 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
     t1 = time.perf_counter()
     with BulletWorld(handover_fidelity(fidelity, step)) as world:
         ids = build_scene(world, scene)
-        # the fit contact takes its pairs over from Bullet before the gripper exists: Bullet
-        # re-creates a body's broadphase proxy when its collision filter changes
-        # (``setCollisionFilterPair``), which reorders the contact pairs against bodies made
-        # before the change. Switched after the gripper, the held part's pinch on its tray was
-        # solved in another order (pinhole_station part4: pads 0.286 N apart while it stood on
-        # its tray, 0.116 N without the filter); switched here, 0.116 N as without.
-        fit = (held_fit_contact(world, ids, step.part, product, geometry)
-               if fidelity.feature_contact else None)
-        if fit is not None:
-            fit.activate()
         gripper = step_gripper(world, gripper_spec(g_res, f_max), traj,
                                float(step.grasp.open_width_m))
         t2 = time.perf_counter()
@@ -231,6 +221,8 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
                                every=fidelity.record_every_steps)
         table_size = product.resources.table.size_m
         guard = SceneGuard(cell_half_size_m=max(1.0, float(np.max(table_size))))
+        fit = (held_fit_contact(world, ids, step.part, product, geometry)
+               if fidelity.feature_contact else None)
         record, outcome = execute_step(world, gripper, ids[step.part], traj, crit,
                                        T_world_part_target=step.T_world_final,
                                        mate_axis_world=step.insertion_direction,
