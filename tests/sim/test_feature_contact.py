@@ -14,8 +14,7 @@ from scipy.optimize import minimize
 from asmplan.sim.feature_contact import least_distance
 from asmplan.sim.fidelity import ACCURATE, BALANCED
 from asmplan.sim.fit_geometry import BoreFeature, FitContactModel, PinFeature, revolved_sdf
-from bench.scenarios import (PinHole, entered_depth_m, jam_depth_m, pin_insertion,
-                             whitney_jam_depth_m)
+from bench.scenarios import PinHole, entered_depth_m, jam_depth_m, pin_insertion, whitney_jam_depth_m
 
 R, H = 5.05e-3, 20e-3  # bore radius, depth
 UP = np.array([0.0, 0.0, 1.0])
