@@ -429,9 +429,54 @@ class FitContactModel:
             pts.append(p)
             nrm.append(n2)
             gap.append(d2)
+        if not self.bore.through:
+            floor = self._floor_contacts(Rp, pp, Rb, pb, margin_m)
+            if floor is not None:
+                single = False
+                pts.append(floor[0])
+                nrm.append(floor[1])
+                gap.append(floor[2])
         if not gap:
             return FitContact(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
         return FitContact(np.vstack(pts), np.vstack(nrm), np.concatenate(gap), single)
+
+    def _floor_contacts(self, Rp: np.ndarray, pp: np.ndarray, Rb: np.ndarray, pb: np.ndarray,
+                        margin_m: float
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The pin's edge circles against a blind bore's floor, as a plane of its own.
+
+        The point-to-solid distance gives each sampled edge point one nearest face: a pin
+        tip standing in the concave corner of wall and floor got only the wall (nearer by
+        micrometres) and nothing held it up; the re-integrated pose sank below the floor and
+        the position projection lifted it back without touching its velocity, which grew at
+        g (fits bench pin released on the rim, tipped in and seated: 1.00 m/s at rest,
+        'fell'). Both faces of a concave corner are active, so the floor is tested on its
+        own: every edge point inside the bore's radius within ``margin_m`` of the floor
+        plane (points, normals (the bore's outward axis), gaps) or None."""
+        axis = Rb[:, 2]
+        floor_z = -self.bore.depth_m
+        heights = np.array([h for h, _ in self._pin_circles])
+        radii = np.array([rad for _, rad in self._pin_circles])
+        centres = pp + heights[:, None] * Rp[:, 2]
+        ring = self._cos[:, None] * Rp[:, 0] + self._sin[:, None] * Rp[:, 1]
+        world = centres[:, None, :] + radii[:, None, None] * ring[None]  # (C, n, 3)
+        rel = (world - pb) @ Rb
+        gap = rel[..., 2] - floor_z
+        inside = np.hypot(rel[..., 0], rel[..., 1]) <= self.bore.radius_m
+        values = np.where(inside, gap, _FAR)  # outside the bore: no floor there
+        if not np.any(values < margin_m):
+            return None
+        rows, ang = _candidates(values, margin_m)
+        if rows.size == 0:
+            return None
+        p = centres[rows] + radii[rows, None] * (np.cos(ang)[:, None] * Rp[:, 0]
+                                                 + np.sin(ang)[:, None] * Rp[:, 1])
+        d = (p - pb) @ axis - floor_z
+        keep = d < margin_m
+        if not np.any(keep):
+            return None
+        p, d = p[keep], d[keep]
+        return p - d[:, None] * axis, np.tile(axis, (d.size, 1)), d
 
     @staticmethod
     def _edge_edge(p: np.ndarray, d2: np.ndarray, n2: np.ndarray, vertex: np.ndarray,

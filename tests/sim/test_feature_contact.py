@@ -49,6 +49,27 @@ def test_pin_profile_distances():
     assert d[2] == pytest.approx(1e-6 / math.sqrt(2), abs=1e-10)
 
 
+def test_a_pin_in_the_corner_of_a_blind_bore_touches_its_floor():
+    """A sharp pin 1 um smaller than its blind bore, 0.5 um off the wall on one side, its tip
+    3 um above the floor: near the wall the tip circle's nearest face is the wall, elsewhere
+    the floor, so the point-to-solid distance alone gave the wall point only (the floor's
+    samples were a plateau, no local minimum) and nothing held the pin up (a pin seated on
+    a floor sank and was lifted back by the position projection every step while its
+    velocity grew at g). Both faces of the concave corner are active: the contact holds the
+    wall point and floor points (normal +z, gap 3 um) round the circle."""
+    pin = PinFeature(np.zeros(3), UP, R - 1e-6, 0.0, 15e-3)
+    model = FitContactModel(pin, bore())
+    T_pin = np.eye(4)
+    T_pin[:3, 3] = (0.5e-6, 0.0, -H + 3e-6)
+    fc = model.contacts(T_pin, np.eye(4), 5e-6)
+    wall = np.abs(fc.normal[:, 2]) < 1e-9
+    assert float(np.min(fc.gap_m[wall])) < 1e-6  # the wall side
+    floor = np.abs(fc.normal[:, 2] - 1.0) < 1e-12
+    assert np.count_nonzero(floor) >= 3
+    assert fc.gap_m[floor] == pytest.approx(3e-6, abs=1e-9)
+    assert np.all(np.abs(fc.point_m[floor, 2] + H) < 1e-12)  # on the floor
+
+
 def whitney_pose(d: float, D: float, t: float, extra_m: float = 0.0) -> np.ndarray:
     """The pin frame (tip at the origin, z toward the root) of a pin tilted by t whose leading
     corner touches the wall at x = +D/2 and whose trailing side touches the mouth edge at
