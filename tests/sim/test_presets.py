@@ -15,16 +15,7 @@ NAMES = ("fast", "balanced", "accurate")
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", [
-    "fast",
-    pytest.param("balanced", marks=pytest.mark.xfail(strict=True, reason=(
-        "issue 17, measured: with the pin held as picked (BALANCED's carry anchors, tilt "
-        "0.0001 mrad, 0.006 um off the TCP) the 4 um fit 4 um off arrives 4.22 / 3.78 um off "
-        "the axis (2.22 / 1.78 um over the rim) and goes in; the 5 um fit 5 um off (5.21 / "
-        "4.79 um) stops on the rim: BALANCED resolves 5 um, not its stated 4 um (on main before "
-        "the anchors the 4 um case passed through pick creep, tip 1.2 um off the TCP). The "
-        "seed's minimum H7/g6 clearance is 4.0 um, so restating 5 um would flag it"))),
-    "accurate"])
+@pytest.mark.parametrize("name", NAMES)
 def test_min_resolvable_clearance_is_resolved(name):
     """At the stored diametral clearance c_d, through the whole pipeline (bench/fits.py: an
     unchamfered 6 mm steel pin into a fixtured block): the step succeeds on the axis and

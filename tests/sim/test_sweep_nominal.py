@@ -42,12 +42,6 @@ def test_the_unperturbed_sample_equals_run_byte_for_byte() -> None:
     assert criteria_for(run.product) == criteria_for(same)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 17, back since the synchronised jaws: at BALANCED the 0.05 mm sample (offset along "
-    "the closing axis) stops 0.98 mm in and the push slides the peg 5.8 mm up the pads (3.3 deg "
-    "rotational slip). With the exact fit contact (session 8) the 0.02 mm sample inserts and the "
-    "0.05 mm one still stops, with only a one-sided 0.11 N contact at the chamfer's foot at the "
-    "deepest point: what holds the peg is not found"))
 def test_the_bundled_peg_goes_in_at_small_pose_errors() -> None:
     """Issue 17's done-when: the bundled peg (H7/g6, 0.5 mm chamfer) swept with small robot
     errors at BALANCED succeeds at every sample; the capture boundary (half the mean clearance
