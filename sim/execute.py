@@ -256,6 +256,8 @@ def execute_step(
     # switched on before the first step: changing Bullet's collision filter of a body drops
     # its contact manifolds (a gripped part's pads lost theirs and sank 0.2 mm into it)
     fit_from = 0
+    if fit_contact is not None:  # the pads' friction takes its share of the fit contact's solve
+        fit_contact.set_grip(gripper.body, FINGER_LINKS, gripper.spec.pad_friction)
 
     def part_contacts() -> Contacts:
         con = world.contacts(part_body)

@@ -179,6 +179,14 @@ class HeldFitContact:
         self.reused = 0
         self._axis: np.ndarray | None = None
         self._base: tuple[np.ndarray, FitContact, np.ndarray, float] | None = None
+        self._grip: tuple[int, tuple[int, ...], float] | None = None
+
+    def set_grip(self, gripper_body: int, pad_links: Sequence[int], pad_friction: float) -> None:
+        """The gripper whose pads hold the body: their friction takes its share of each step's
+        contact solve (see :meth:`_pad_rows`). ``pad_friction`` is the pads' coefficient
+        (combined with the held body's as Bullet does, by product)."""
+        mu = float(pad_friction) * self.world.lateral_friction(self.held_body)
+        self._grip = (int(gripper_body), tuple(int(k) for k in pad_links), mu)
 
     # ------------------------------------------------------------------ switching
     def activate(self) -> None:
@@ -313,7 +321,9 @@ class HeldFitContact:
                 return
         Minv_sqrt = self._minv_sqrt(R_prev)
         mu = self.friction[owner]
-        u_new, lam_n, p_t, t1, t2 = self._solve_velocity(found, mu, c_prev, u, Minv_sqrt, dt)
+        pads = self._pad_rows(c_prev, dt)
+        u_new, lam_n, p_t, t1, t2 = self._solve_velocity(found, mu, c_prev, u, Minv_sqrt, dt,
+                                                         pads)
         # re-integrate from the pre-step pose with the corrected velocity
         c_new = c_prev + dt * u_new[:3]
         wn = float(np.linalg.norm(u_new[3:]))
@@ -370,8 +380,42 @@ class HeldFitContact:
     def _rows(points: np.ndarray, dirs: np.ndarray, c: np.ndarray) -> np.ndarray:
         return np.hstack([dirs, _cross(points - c, dirs)])
 
+    def _pad_rows(self, c: np.ndarray, dt: float
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The grip's share: the pads' friction left after Bullet's step, as friction-only
+        contacts of this step's solve.
+
+        Bullet solved the pads against the held body a step before this model's contact (the
+        body free of the rim in its step), so an impulse of the fit contact moved the body as
+        a free body in the grip: a pin stopped on a rim spun in the pads (1.8 rad/s, then
+        rocking at 7-8 rad/s) and the fingers sank into it. Each pad contact point resists the
+        body's sliding relative to the gripper with what its friction cone has left,
+        sqrt((mu N)^2 - |f_Bullet|^2) dt, where N and f_Bullet are the normal and friction
+        forces Bullet's step applied there; the normal direction (force-controlled fingers)
+        is not added. Returns (rows (k, 2, 6), the gripper's tangential velocity there
+        (k, 2), impulse caps (k,)) or None when no pad touches the body."""
+        if self._grip is None:
+            return None
+        body, links, mu = self._grip
+        con = self.world.contacts(self.held_body, body)
+        on_pad = np.isin(con.link_b, links) & (con.normal_force_N > 0.0)
+        if not np.any(on_pad):
+            return None
+        con = con.select(on_pad)
+        n = con.normal_on_b
+        p = con.position_on_a_m
+        t1, t2 = _tangents(n)
+        rows = np.stack([self._rows(p, t1, c), self._rows(p, t2, c)], axis=1)
+        v_g, w_g = self.world.velocity(body)
+        v_pad = v_g + _cross(np.broadcast_to(w_g, p.shape), p - self.world.com_position_m(body))
+        target = np.column_stack([np.sum(t1 * v_pad, axis=1), np.sum(t2 * v_pad, axis=1)])
+        used2 = np.sum(con.friction_on_a_N * con.friction_on_a_N, axis=1)
+        cap = np.sqrt(np.maximum(0.0, (mu * con.normal_force_N) ** 2 - used2)) * dt
+        return rows, target, cap
+
     def _solve_velocity(self, found: FitContact, mu: np.ndarray, c: np.ndarray, u: np.ndarray,
-                        Minv_sqrt: np.ndarray, dt: float):
+                        Minv_sqrt: np.ndarray, dt: float,
+                        pads: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None):
         Jn = self._rows(found.point_m, found.normal, c)
         Gn = Jn @ Minv_sqrt
         t1, t2 = _tangents(found.normal)
@@ -391,15 +435,23 @@ class HeldFitContact:
         Winv = np.empty_like(W)
         Winv[:, 0, 0], Winv[:, 1, 1] = W[:, 1, 1] / det, W[:, 0, 0] / det
         Winv[:, 0, 1], Winv[:, 1, 0] = -W[:, 0, 1] / det, -W[:, 1, 0] / det
+        if pads is not None:
+            P, v_pad, pad_cap = pads
+            MP = np.einsum("ab,kib->kai", Minv, P)  # (kp, 6, 2)
+            WP = np.einsum("kib,kbj->kij", P, MP)
+            WPinv = np.linalg.inv(WP + 1e-300 * np.eye(2)[None])
+            q_p = np.zeros((P.shape[0], 2))
         for rnd in range(FRICTION_ROUNDS):
             u_f = u + np.einsum("kai,ki->a", MJt, p_t)
+            if pads is not None:
+                u_f = u_f + np.einsum("kai,ki->a", MP, q_p)
             sol = least_distance(Gn, target - Jn @ u_f)
             if sol is None:  # infeasible (cannot happen for a pin in a bore): leave as is
                 break
             y, lam = sol
             u_new = u_f + Minv_sqrt @ y
             cap = mu * lam * touching
-            if rnd == FRICTION_ROUNDS - 1 or not np.any(cap > 0):
+            if rnd == FRICTION_ROUNDS - 1 or not (np.any(cap > 0) or pads is not None):
                 break
             for i in np.flatnonzero((cap > 0) | np.any(p_t != 0.0, axis=1)):
                 old = p_t[i]
@@ -409,6 +461,15 @@ class HeldFitContact:
                     new = new * (cap[i] / norm) if norm > 0 else new * 0.0
                 u_new = u_new + MJt[i] @ (new - old)
                 p_t[i] = new
+            if pads is not None:  # the pads hold the body to the gripper, within their cone
+                for i in range(P.shape[0]):
+                    old = q_p[i]
+                    new = old - WPinv[i] @ (P[i] @ u_new - v_pad[i])
+                    norm = math.hypot(new[0], new[1])
+                    if norm > pad_cap[i]:
+                        new = new * (pad_cap[i] / norm) if norm > 0 else new * 0.0
+                    u_new = u_new + MP[i] @ (new - old)
+                    q_p[i] = new
         norm = np.linalg.norm(p_t, axis=1)
         over = norm > mu * lam * touching
         if np.any(over):  # what the last normal solve bears
