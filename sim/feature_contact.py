@@ -43,10 +43,15 @@ switches it on before the step's first physics step: changing a body's collision
 drops its contact manifolds, and a gripped part's pads sank 0.2 mm into it). The fingers and
 every other body keep Bullet's contact.
 
-Known limits (measured, open): Bullet's pads on the carried pin are solved a step apart from
-this model (a step into free space is kept as Bullet took it, so an approaching pin is not
-stopped by a linearised edge gap); the block's face is a disc out to the solid's farthest
-vertex (docs/physics.md, "Exact fit contact").
+The grip. Bullet solves the pads against the held body a step before this model; their
+friction takes its share of this model's solve with what their cones have left
+(:meth:`HeldFitContact.set_grip`), their normals do not.
+
+Known limits (measured, open): the pads' normals (the moment their pressure carries) act
+only in Bullet's step, so a pin stopped on a rim crescent while the grip slides tilts in the
+grip (the 0.12 mm capture case at BALANCED); a step into free space is kept as Bullet took it
+(an approaching pin is not stopped by a linearised edge gap); the block's face is a disc out
+to the solid's farthest vertex (docs/physics.md, "Exact fit contact").
 """
 
 from __future__ import annotations
