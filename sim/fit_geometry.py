@@ -55,6 +55,10 @@ solid's convex edges (a profile vertex: the mouth circle, the pin's tip circle) 
 edge: two edges touch, and their contact normal is the cross product of the two circles'
 tangents (see :meth:`FitContactModel.contacts`), m."""
 
+BESIDE_DEPTH_M = 0.2e-3
+"""A pin edge more than this below the block's face and this far outside its bore's mouth is
+beside the block, not in it: no contact (see :meth:`FitContactModel.contacts`), m."""
+
 EDGE_PARALLEL_SIN = 1e-6
 """Below this sine of the angle between the two edges' tangents the edges run parallel (a pin
 concentric in its bore at the mouth) and the point-to-surface normal is kept."""
@@ -403,6 +407,18 @@ class FitContactModel:
                                                      + np.sin(ang)[:, None] * R[:, 1])
             d2, n2 = sdf(p)
             keep = d2 < margin_m
+            if on_pin:
+                # the block is modelled as its face (out to rim_radius_m) over a solid of
+                # revolution; below the face and outside the bore that solid is not the real
+                # block (a box): a pin edge there, deeper than any step can take it through
+                # the face, is beside the block, not in it (gearbox dowel_1 carried 157 mm
+                # from its bore's axis, 1 mm below the face: pushed 0.2 mm by that solid's
+                # outer wall and lost from the grip)
+                rel = (p - pb) @ Rb
+                rho = np.hypot(rel[:, 0], rel[:, 1])
+                keep &= (rho <= self.bore.rim_radius_m) & ~(
+                    (rel[:, 2] < -BESIDE_DEPTH_M)
+                    & (rho > self.bore.radius_m + self.bore.chamfer_m + BESIDE_DEPTH_M))
             if not np.any(keep):
                 continue
             p, d2, n2 = p[keep], d2[keep], n2[keep]
