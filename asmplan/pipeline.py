@@ -31,7 +31,7 @@ from .planner.product import plan_product, ranked_sequences
 from .planner.sequence import SequencePlan, SequenceSettings, plan_sequence
 from .sim.fidelity import Fidelity, preset
 from .sim.pose_error import PoseError
-from .sim.results import PlanResults
+from .sim.results import PlanResults, StepResult
 from .sim.simulate import PipelinedSimulation, resolve_workers, simulate_plan
 
 Progress = Callable[[str, int, int, str], None]
@@ -129,14 +129,19 @@ def finite_json(value: Any) -> Any:
 
 def run_product(product: Product | str | Path, settings: RunSettings | None = None, *,
                 progress: Progress | None = None,
-                while_simulating: Callable[[RunResult], None] | None = None) -> RunResult:
+                while_simulating: Callable[[RunResult], None] | None = None,
+                on_step_result: Callable[[RunResult, StepResult], None] | None = None,
+                ) -> RunResult:
     """Sequence, plan and simulate ``product`` (a validated Product or a YAML path).
 
     ``while_simulating(result)`` is called once the plan exists (``result.plan``), after every
     step has been handed to the simulation workers and before their results are awaited: work
     that needs only the plan (:func:`render_while_simulating`: the report's plan-only
     pictures) then runs while the workers simulate. With one worker the steps simulate in
-    this process after it returns. Its CPU time is kept out of ``cpu_s["simulate"]``
+    this process after it returns. ``on_step_result(result, step_result)`` is called in this
+    process as each step's result comes back from a worker, in the order they finish (with
+    several workers only: :meth:`EarlyReport.step_done` draws that step's report pictures
+    while the others simulate). The CPU time of both is kept out of ``cpu_s["simulate"]``
     (``while_simulating_cpu_s``)."""
     settings = settings or RunSettings()
     if not isinstance(product, Product):
@@ -200,7 +205,14 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
                 while_simulating(result)
                 result.while_simulating_cpu_s = time.process_time() - c_ws
             if pipe is not None:
-                result.results = pipe.results(result.plan, progress=sim_progress)
+                def step_back(step_result: StepResult) -> None:
+                    if on_step_result is not None:
+                        c_sr = time.process_time()
+                        on_step_result(result, step_result)
+                        result.while_simulating_cpu_s += time.process_time() - c_sr
+
+                result.results = pipe.results(result.plan, progress=sim_progress,
+                                              on_result=step_back)
             else:
                 result.results = simulate_plan(result.plan, product, geometry, fidelity,
                                                cull=settings.cull, workers=1,
@@ -225,24 +237,43 @@ def run_product(product: Product | str | Path, settings: RunSettings | None = No
     return result
 
 
-def render_while_simulating(folder: OutputFolder) -> Callable[[RunResult], None]:
-    """A ``while_simulating`` for :func:`run_product` that renders the report's plan-only
-    pictures into ``folder``'s staging folder (:mod:`asmplan.report.planviews`);
-    :func:`write_outputs` into the same ``folder`` then renders only the rest.
+class EarlyReport:
+    """The report's pictures drawn while the steps simulate, into an :class:`OutputFolder`'s
+    staging folder: called as ``while_simulating`` it renders the plan-only pictures
+    (:mod:`asmplan.report.planviews`); :meth:`step_done`, given to :func:`run_product` as
+    ``on_step_result``, draws each step's result pictures as its result comes back while other
+    steps still simulate (:mod:`asmplan.report.steppictures`). :func:`write_outputs` into the
+    same folder then draws only what is left (the pictures are the same either way)."""
 
-    >>> with OutputFolder("out") as folder:                            # doctest: +SKIP
-    ...     result = run_product(product, settings,
-    ...                          while_simulating=render_while_simulating(folder))
-    ...     write_outputs(result, folder)
-    """
-    def render(result: RunResult) -> None:
+    def __init__(self, folder: OutputFolder) -> None:
+        self.folder = folder
+
+    def __call__(self, result: RunResult) -> None:
         from .report.planviews import render_plan_views
 
         assert result.plan is not None  # called once the plan exists
         result.report_views = render_plan_views(result.product, result.geometry,
-                                                result.sequence, result.plan, folder.stage)
+                                                result.sequence, result.plan, self.folder.stage)
 
-    return render
+    def step_done(self, result: RunResult, step_result: StepResult) -> None:
+        """Draw the pictures of a step whose result came back (plan views rendered first)."""
+        if result.report_views is not None:
+            result.report_views.step_done(result.product, step_result)
+
+
+def render_while_simulating(folder: OutputFolder) -> EarlyReport:
+    """A ``while_simulating`` for :func:`run_product` that renders the report's plan-only
+    pictures into ``folder``'s staging folder (:mod:`asmplan.report.planviews`); its
+    ``step_done``, passed as ``on_step_result``, draws each step's result pictures as the
+    step finishes. :func:`write_outputs` into the same ``folder`` then renders only the rest.
+
+    >>> with OutputFolder("out") as folder:                            # doctest: +SKIP
+    ...     early = render_while_simulating(folder)
+    ...     result = run_product(product, settings, while_simulating=early,
+    ...                          on_step_result=early.step_done)
+    ...     write_outputs(result, folder)
+    """
+    return EarlyReport(folder)
 
 
 def write_outputs(result: RunResult, outdir: str | Path | OutputFolder, *, report: bool = True,

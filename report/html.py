@@ -20,6 +20,8 @@ from ..planner.plan import Plan
 from . import plots
 from .fits import unresolved_fits
 from .planviews import PlanViews, path_view_name
+from .steppictures import StepPictures, render_step_pictures
+from .steppictures import grip_limit as step_grip_limit
 from .views import Views
 
 if TYPE_CHECKING:
@@ -252,18 +254,11 @@ def _step_notes(notes: list[str], mates: list[str], unresolved: list[dict[str, A
     return out
 
 
-def _failure_caption(res: Any) -> str:
-    o = res.outcome
-    if o.success:
-        return ""
-    return "; ".join(o.reasons)
-
-
 # Complexity above C (radon): one report row per step, each field formatted where it is shown (absent
 # values as '-').
 def _step_rows(inp: ReportInputs, views: Views | None, folder: Path,
-               unresolved: list[dict[str, Any]], paths: dict[int, str] | None = None
-               ) -> list[dict[str, Any]]:
+               unresolved: list[dict[str, Any]], paths: dict[int, str] | None = None,
+               done: dict[int, StepPictures] | None = None) -> list[dict[str, Any]]:
     if inp.plan is None:
         return []
     results = {r.index: r for r in inp.results.steps} if inp.results is not None else {}
@@ -272,9 +267,8 @@ def _step_rows(inp: ReportInputs, views: Views | None, folder: Path,
         n = step_number(step.index)
         res = results.get(step.index)
         outcome = res.outcome if res is not None else None
-        clamp = step.clamp
         gripper = inp.product.gripper_for(step.part)  # with the pads this part's step uses
-        grip_limit = clamp.limit_N if clamp is not None else gripper.max_force_N
+        grip_limit = step_grip_limit(inp.product, step)
         cycle = step.cycle_time_s if step.trajectory is not None else None
         row: dict[str, Any] = {
             "index": step.index, "number": n, "part": step.part, "kind": step.kind,
@@ -297,7 +291,6 @@ def _step_rows(inp: ReportInputs, views: Views | None, folder: Path,
             row["tightest"] = "–"
         if step.kind == "fixture":
             row["summary"] = "Held by the fixture from the start; not handled by the robot."
-        base = f"step{n:02d}"
         if views is not None and step.kind != "fixture":
             name = (paths or {}).get(step.index, "")  # rendered while simulating
             if not name:
@@ -306,49 +299,19 @@ def _step_rows(inp: ReportInputs, views: Views | None, folder: Path,
             row["views"].append({"src": name, "kind": "path", "caption":
                                  f"planned path of {step.part}: pick (translucent) → transport "
                                  "(blue) → insertion (red) → target"})
-            failed = outcome is not None and not outcome.success
-            rec = res.record if res is not None else None
-            placed = {s.part: s.T_world_final for s in inp.plan.steps if s.index < step.index}
-            partners = [(p, placed[p]) for m in inp.product.mates if m.name in step.mates
-                        for p in (m.pin_part, m.hole_part) if p in placed]
-            partners = list(dict(partners).items())
-            if rec is not None and rec.n_ticks > 0 and np.all(np.isfinite(rec.T_world_part[-1])):
-                T_end, where = rec.T_world_part[-1], "simulated end of the step"
-            else:
-                T_end, where = step.T_world_final, "planned target"
-            name = f"{base}-section.png"
-            _, cut = views.section_view(step, T_end, folder / name, partners)
-            caption = f"{cut}, {where}"
-            if failed:
-                caption = (f"FAILED, this is where {step.part} ended: {_failure_caption(res)} "
-                           f"({cut})")
-            row["views"].append({"src": name, "kind": "section", "caption": caption})
-            if rec is not None and rec.n_ticks > 1:
-                name = f"{base}-animation.png"
-                views.animation(inp.plan, step, rec, folder / name)
-                row["views"].append({"src": name, "kind": "animation", "caption":
-                                     ("simulated step (animated; " +
-                                      ("FAILED: " + _failure_caption(res) if failed else
-                                       "part and gripper as simulated") + ")")})
-        if res is not None and res.record is not None and res.record.n_ticks > 1:
-            rec = res.record
-            title = f"step {n}: {step.part}"
-            name = f"{base}-clamp-force.png"
-            plots.clamp_force_plot(rec, folder / name, title=title,
-                                   slip_threshold_N=clamp.slip_limit_N if clamp else None,
-                                   grip_limit_N=grip_limit if clamp else None)
-            row["plots"]["clamp force: commanded vs simulated"] = name
-            if step.insertion_length_m > 0 and math.isfinite(float(rec.axial_error_m[-1])):
-                name = f"{base}-insertion.png"
-                plots.insertion_plot(rec, folder / name, target_depth_m=step.insertion_length_m,
-                                     title=title)
-                row["plots"]["insertion depth and contact force"] = name
-            if outcome is not None:
-                row["summary"] = (
-                    f"Clamp force error (mean absolute, held phases): {outcome.clamp_force_mae_N:.4f} N; "
-                    f"max slip {outcome.max_slip_m * 1e3:.3f} mm; final axial error "
-                    f"{_fmt(outcome.final_axial_error_m, 1e3, 3)} mm; max penetration "
-                    f"{outcome.max_penetration_m * 1e3:.3f} mm.")
+        pics = (done or {}).get(step.index)  # drawn when the step's result came back
+        if pics is None or pics.result is not res:
+            pics = render_step_pictures(inp.product, inp.plan, views, step, res, folder,
+                                        grip_limit)
+        row["views"].extend(pics.views)
+        row["plots"].update(pics.plots)
+        if (res is not None and res.record is not None and res.record.n_ticks > 1
+                and outcome is not None):
+            row["summary"] = (
+                f"Clamp force error (mean absolute, held phases): {outcome.clamp_force_mae_N:.4f} N; "
+                f"max slip {outcome.max_slip_m * 1e3:.3f} mm; final axial error "
+                f"{_fmt(outcome.final_axial_error_m, 1e3, 3)} mm; max penetration "
+                f"{outcome.max_penetration_m * 1e3:.3f} mm.")
         rows.append(row)
     return rows
 
@@ -416,7 +379,8 @@ def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True,
         k = mate_steps.get(u["mate"])
         u["step"] = "–" if k is None or k < 0 else str(step_number(k))
     steps = _step_rows(inp, views, folder, unresolved,
-                       prepared.paths if prepared is not None else None)
+                       prepared.paths if prepared is not None else None,
+                       prepared.steps if prepared is not None else None)
     arm = _arm_block(inp)
     if arm is not None and prepared is not None and prepared.reach:
         arm["reach_image"] = prepared.reach

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 from ..knowledge.model import Product
 from ..planner.plan import Plan
 from . import plots
+from .steppictures import StepPictures, grip_limit, render_step_pictures
 from .views import Views
 
 if TYPE_CHECKING:
@@ -60,6 +61,9 @@ class PlanViews:
         File name of the precedence graph ("" without a sequence).
     reach : str
         File name of the arm's reach plot ("" without an arm).
+    steps : dict
+        Step index -> its result pictures (:mod:`asmplan.report.steppictures`), drawn by
+        :meth:`step_done` as each step's result came back.
     cpu_s : float
         CPU seconds this process spent rendering them.
     """
@@ -72,7 +76,18 @@ class PlanViews:
     story: list[tuple[int, str, str]] = field(default_factory=list)
     graph: str = ""
     reach: str = ""
+    steps: dict[int, StepPictures] = field(default_factory=dict)
     cpu_s: float = 0.0
+
+    def step_done(self, product: Product, step_result: Any) -> None:
+        """Draw the pictures of the step whose result just came back (see
+        :mod:`asmplan.report.steppictures`); its CPU time is added to :attr:`cpu_s`."""
+        c0 = time.process_time()
+        step = self.plan.steps[step_result.index]
+        self.steps[step.index] = render_step_pictures(
+            product, self.plan, self.views, step, step_result, self.folder,
+            grip_limit(product, step))
+        self.cpu_s += time.process_time() - c0
 
     def usable_for(self, plan: Plan | None, folder: Path) -> bool:
         """True when these pictures show ``plan`` and lie in ``folder``."""

@@ -38,7 +38,7 @@ import multiprocessing
 import os
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
@@ -585,28 +585,47 @@ class PipelinedSimulation:
             step, state = self._waiting.pop(key)
             self._futures[key] = self._ensure_pool().submit(_simulate_planned, step, state)
 
-    def results(self, plan: Plan, progress: ProgressFn | None = None) -> PlanResults:
-        """The results of every step of the finished ``plan`` (waits for the workers)."""
+    def results(self, plan: Plan, progress: ProgressFn | None = None,
+                on_result: Callable[[StepResult], None] | None = None) -> PlanResults:
+        """The results of every step of the finished ``plan`` (waits for the workers).
+
+        ``on_result(step_result)`` is called in this process as each step's result comes
+        back, in the order the workers finish them (``progress`` likewise, with the count of
+        finished steps): the caller may use the wait (e.g. draw that step's report
+        pictures while the others simulate). The results are the same whatever the order."""
         check_plan_product(plan, self.product)
         order = tuple(plan.sequence)
         self._submit_waiting(None)  # planning is over: every core simulates
         job = replace(self._job, plan=plan)
         done: dict[int, StepResult] = {}
         n = len(plan.steps)
+
+        def finished(k: int, res: StepResult) -> None:
+            done[k] = res
+            if on_result is not None:
+                on_result(res)
+            if progress is not None:
+                progress(len(done) - 1, n, plan.steps[k].part, "done")
+
+        pending: dict[Future[StepResult], int] = {}
         for k, step in enumerate(plan.steps):
             future = self._futures.get((order, k))
+            if future is None and step.trajectory is not None:  # not reported by the planner
+                try:
+                    future = self._ensure_pool().submit(_simulate_planned, step,
+                                                        assembly_state(plan, k))
+                except BrokenProcessPool:
+                    continue
+            if future is not None:
+                pending[future] = k
+            else:
+                finished(k, job.step(k))
+        for future in as_completed(pending):
             try:
-                if future is not None:
-                    done[k] = future.result()
-                elif step.trajectory is not None:  # not reported by the planner: now
-                    done[k] = self._ensure_pool().submit(
-                        _simulate_planned, step, assembly_state(plan, k)).result()
-                else:
-                    done[k] = job.step(k)
+                res = future.result()
             except BrokenProcessPool:
                 continue
-            if progress is not None:
-                progress(k, n, step.part, "done")
+            finished(pending[future], res)
         if len(done) < n:  # a worker died
             self.close()
             _retry_alone(job, range(n), done, progress)

@@ -99,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
     with OutputFolder(args.out) as folder:  # checked and locked before any work
         # the report's plan-only pictures are rendered while the steps simulate
         early = None if args.no_report else render_while_simulating(folder)
-        result = run_product(product, settings, progress=progress, while_simulating=early)
+        result = run_product(product, settings, progress=progress, while_simulating=early,
+                             on_step_result=None if early is None else early.step_done)
         write_outputs(result, folder, report=not args.no_report, progress=progress)
     out = sys.stdout
     if result.plan is not None:

@@ -1,5 +1,6 @@
-"""The report's plan-only pictures rendered while the steps simulate (report/planviews.py):
-the same report, byte for byte, as one rendered after the simulation, and not drawn twice."""
+"""The report's plan-only pictures rendered while the steps simulate (report/planviews.py)
+and each step's result pictures drawn as its result comes back (report/steppictures.py): the
+same report, byte for byte, as one rendered after the simulation, and not drawn twice."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import pytest
 
 from asmplan.fileio import OutputFolder
 from asmplan.pipeline import RunSettings, render_while_simulating, run_product, write_outputs
+from asmplan.report import plots
 from asmplan.report.views import Views
 from tests.conftest import example_path
 
@@ -25,8 +27,9 @@ def test_pictures_rendered_while_simulating_make_the_same_report(tmp_path, monke
     # processes while this one renders
     settings = RunSettings(fidelity="fast", workers=2)
     with OutputFolder(tmp_path / "early") as folder:
+        early = render_while_simulating(folder)
         result = run_product(example_path("pinhole_station"), settings,
-                             while_simulating=render_while_simulating(folder))
+                             while_simulating=early, on_step_result=early.step_done)
         prepared = result.report_views
         assert prepared is not None and prepared.usable_for(result.plan, folder.stage)
         moving = [s.index for s in result.plan.steps if s.kind != "fixture"]
@@ -35,16 +38,23 @@ def test_pictures_rendered_while_simulating_make_the_same_report(tmp_path, monke
         assert prepared.images == {"assembled": "assembled.png", "exploded": "exploded.png"}
         assert prepared.graph == "precedence.png"
         assert result.while_simulating_cpu_s > 0
-        # after the simulation only the pictures that need it are drawn
+        # every step's result pictures were drawn as its result came back
+        every = [s.index for s in result.plan.steps]
+        assert sorted(prepared.steps) == every
+        assert all(prepared.steps[k].result is result.results.steps[k] for k in every)
+        # after the simulation nothing is drawn again
         calls: list[str] = []
-        for name in ("render_product", "path_view", "storyboard"):
-            original = getattr(Views, name)
+        for owner, name in ((Views, "render_product"), (Views, "path_view"),
+                            (Views, "storyboard"), (Views, "section_view"),
+                            (Views, "animation"), (plots, "clamp_force_plot"),
+                            (plots, "insertion_plot")):
+            original = getattr(owner, name)
 
-            def counted(self, *a, _name=name, _original=original, **k):
+            def counted(*a, _name=name, _original=original, **k):
                 calls.append(_name)
-                return _original(self, *a, **k)
+                return _original(*a, **k)
 
-            monkeypatch.setattr(Views, name, counted)
+            monkeypatch.setattr(owner, name, counted)
         write_outputs(result, folder)
         assert calls == []
         monkeypatch.undo()
