@@ -256,9 +256,16 @@ class EarlyReport:
                                                 result.sequence, result.plan, self.folder.stage)
 
     def step_done(self, result: RunResult, step_result: StepResult) -> None:
-        """Draw the pictures of a step whose result came back (plan views rendered first)."""
-        if result.report_views is not None:
+        """Draw the pictures of a step whose result came back (plan views rendered first).
+
+        A picture that fails here is left to :func:`write_outputs`, which draws it again and
+        reports its error there, after every step's result is kept (as without this)."""
+        if result.report_views is None:
+            return
+        try:
             result.report_views.step_done(result.product, step_result)
+        except Exception:  # deferred: write_report draws it again and raises there
+            result.report_views.steps.pop(step_result.index, None)
 
 
 def render_while_simulating(folder: OutputFolder) -> EarlyReport:

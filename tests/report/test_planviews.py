@@ -79,3 +79,26 @@ def test_pictures_for_another_plan_or_folder_are_not_used(tmp_path) -> None:
     other = write_outputs(result, tmp_path / "b")
     for name in ("assembled.png", "step02-path.png", "step01-after.png", "precedence.png"):
         assert (other / name).is_file(), name
+
+
+def test_a_step_picture_that_fails_while_simulating_is_drawn_by_the_report(tmp_path,
+                                                                           monkeypatch) -> None:
+    import asmplan.report.planviews as planviews
+
+    def broken(*a, **k):
+        raise RuntimeError("renderer failed")
+
+    monkeypatch.setattr(planviews, "render_step_pictures", broken)
+    with OutputFolder(tmp_path / "out") as folder:
+        early = render_while_simulating(folder)
+        result = run_product(example_path("pinhole_station"),
+                             RunSettings(fidelity="fast", workers=2),
+                             while_simulating=early, on_step_result=early.step_done)
+        # the simulation's results are all kept; no step's pictures count as drawn
+        assert result.results is not None and len(result.results.steps) == len(result.plan.steps)
+        assert result.report_views.steps == {}
+        monkeypatch.undo()
+        out = write_outputs(result, folder)
+    for s in result.plan.steps:
+        if s.kind != "fixture":
+            assert (out / f"step{s.index + 1:02d}-clamp-force.png").is_file()
