@@ -75,6 +75,7 @@ from .insertion import (
 from .layout import initial_layout
 from .ompl_backend import SE3Bounds, plan_se3
 from .partdata import PartData
+from .path_turn import levelled_turns
 from .plan import Grasp, Plan, PlannerSettings, Step
 from .press import hand_over_pose, press_operation, press_step, product_press_fits
 from .regrasp_steps import plan_regrasp
@@ -544,6 +545,7 @@ class MotionPlanner:
         partial = np.array([G_lift])
         pairs_seen: list[CollidingPair] = []
         direct = True
+        winding = None  # a free path whose via poses turn off the steady slerp
         for attempt in range(settings.replan_attempts + 1):
             res = plan_se3(valid, G_lift, goal, bounds, planner=settings.planner,
                            time_budget_s=settings.time_budget_s,
@@ -557,20 +559,28 @@ class MotionPlanner:
                 partial = res.poses
                 break
             t1 = time.perf_counter()
-            cert = certify_path(scene, res.poses, carried, obstacles, radius,
-                                settings.recheck_step_m)
+            levels = levelled_turns(res.poses)  # one steady turn, where free (path_turn)
+            for candidate in [*levels, res.poses]:
+                cert = certify_path(scene, candidate, carried, obstacles, radius,
+                                    settings.recheck_step_m)
+                checked += cert.checked
+                if cert.ok:
+                    break
             check_s += time.perf_counter() - t1
-            checked += cert.checked
-            if cert.ok:
-                path = res.poses
+            direct = direct and len(res.poses) > 2  # the straight motion is known to collide
+            if cert.ok and (candidate is not res.poses or not levels):
+                path = candidate
                 break
+            if cert.ok:  # free, but through a detour of turns: another seed may turn steadily
+                winding = res.poses if winding is None else winding
+                continue
             last_reason = (f"the path collides between OMPL's checks (leg {cert.leg}) at "
                            f"resolution {resolution * 1e3:.2f} mm")
             partial = res.poses[: cert.leg + 1]
             pairs_seen = list(cert.pairs)
             resolution /= 2
-            direct = direct and len(res.poses) > 2  # the straight motion is known to collide
         scene.set_part_pose(part, T_start)
+        path = winding if path is None else path
         if path is None:
             err = NoPathError(index, part, partial, last_reason, pairs_seen)
             raise _GraspFailed(last_reason, err)
