@@ -213,10 +213,14 @@ def _convex_split(solid, name: str, rel_tol: float, budget: list[int], filled: l
             filled.append(hull_vol - vol)
         budget[0] -= 1
         return [_hull_piece(pts, name)]
-    planes = _concave_planes(solid, max(1e-7, 1e-6 * size))
+    eps = max(1e-7, 1e-6 * size)
+    planes = _concave_planes(solid, eps)
     for _a, nrm, o in planes:
-        inside = _trim(solid, -nrm, -o)
-        outside = _trim(solid, nrm, o)
+        # cut eps beyond the face: a cut in the face's own plane leaves its coplanar faces
+        # as a flat sheet on the far piece (a pin cut off its face kept a sheet to the face's
+        # corners, and its hull bridged the pin to the body)
+        inside = _trim(solid, -nrm, -(o + eps))
+        outside = _trim(solid, nrm, o + eps)
         if _empty(inside, 1e-18) or _empty(outside, 1e-18):
             continue
         return (_convex_split(inside, name, rel_tol, budget, filled, depth + 1)
