@@ -206,7 +206,8 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
         out += ["## CAD import", "",
                 "`bench.cad_import.bench()`: `import_assembly` (read, recognise features, propose "
                 "mates) on the 20-part STEP fixture `tests/fixtures/cad/two_stations_20.step` and two "
-                "mesh folders, 3 runs each; the target is < 10 s for a 20-part STEP.", "",
+                "mesh folders, 3 runs each; the target is < 10 s for a 20-part STEP on 2 cores (the "
+                "CPU column is this process's user + system time, free of the machine's load).", "",
                 format_import(rep.cad_import)]
     out += ["## Accuracy bounds", "", "| figure | preset | bound | reason |", "| --- | --- | ---: | --- |"]
     out += [f"| {b.figure} | {b.preset} | {_fmt(b.limit, b.unit).lstrip('+')} | {b.reason} |" for b in BOUNDS]
