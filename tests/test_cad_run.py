@@ -70,9 +70,10 @@ PRESET = {
         # knob (a 10 mm H7/g6 bore over the post, 5 um smallest clearance): FAST's solver does
         # not resolve the bore's contact (1.3 mm penetration, flagged untrustworthy) and
         # throws the knob off; BALANCED inserts it with the grasp the hold criterion ranks
-        # first (lever 1.0 mm from the contact centre, 0.8 N needed). It arrives 0.007 deg
-        # and 0 um off the post's axis because the carry anchors hold it in the pads; without
-        # them it turns 0.17 deg and moves 31 um in the pads in transfer and jams 0.65 mm in
+        # first (lever 1.0 mm from the contact centre, 0.8 N needed). It arrives 0.007 deg and
+        # 0 um off the post's axis (0.04 deg, 6 um without carry anchors); before the steady
+        # turn (planner/path_turn.py) its transfer turned 111 deg and back and, without carry
+        # anchors, it turned 0.17 deg in the pads and jammed 0.65 mm in
         "knob": "balanced",
     },
 }
