@@ -2,11 +2,14 @@
 should know before trusting a plan (a multi-body file fused into one part, a declared feature
 that the level of detail used for contact fills or bridges).
 
-``validate`` and ``sequence`` print them; each names the part and the file.
+``validate`` and ``sequence`` print them; each names the part and the file. ``validate`` also
+reports, as input errors, every ``geometry.body`` that names no body of its STEP file
+(:func:`body_issues`; the other commands meet it when they load the part).
 """
 
 from __future__ import annotations
 
+from ..knowledge.errors import InputIssue
 from ..knowledge.model import Product
 from .models import ProductGeometry
 
@@ -42,4 +45,28 @@ def geometry_warnings(product: Product, geometry: ProductGeometry | None = None)
     return out + level_warnings(product, geometry)
 
 
-__all__ = ["geometry_warnings"]
+def body_issues(product: Product) -> list[InputIssue]:
+    """Every ``geometry.body`` of the product that names no body of its STEP file (or whose
+    file cannot be read as STEP), located at that key in the product file; all at once."""
+    from ..knowledge.yamlsource import load_located
+    from .meshfile import MeshFileError, check_step_body
+
+    issues: list[InputIssue] = []
+    for idx, part in enumerate(product.parts):
+        g = part.geometry
+        if g.kind != "mesh" or g.mesh_file is None or g.mesh_body is None:
+            continue
+        try:
+            check_step_body(g.mesh_file, g.mesh_body)
+        except MeshFileError as exc:
+            path: tuple[str | int, ...] = ("parts", idx, "geometry", "body")
+            message = f"mesh file {exc}"
+            try:
+                issues.append(load_located(product.source).issue(path, message))
+            except Exception:  # the source is not a readable YAML file: name the key only
+                issues.append(InputIssue(str(product.source), 0, 0,
+                                         f"parts[{idx}].geometry.body", message))
+    return issues
+
+
+__all__ = ["body_issues", "geometry_warnings"]

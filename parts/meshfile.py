@@ -160,17 +160,28 @@ def step_body_names(path: Path | str, step_deflection_m: float = 1e-4) -> list[s
     return [str(n) for n in scene.graph.nodes_geometry]
 
 
+def _find_body(scene, path: Path, body: str):
+    """The graph node of the body named ``body`` (its instance or its geometry's name)."""
+    for n in scene.graph.nodes_geometry:
+        if str(n) == body or str(scene.graph[n][1]) == body:
+            return n
+    names = [str(n) for n in scene.graph.nodes_geometry]
+    raise MeshFileError(path, f'expected a body named "{body}", found bodies: {", ".join(names)}')
+
+
+def check_step_body(path: Path | str, body: str, step_deflection_m: float = 1e-4) -> None:
+    """Raise :class:`MeshFileError` unless ``body`` names a body of the STEP file at ``path``
+    (as ``geometry.body`` is resolved when the part is loaded), listing the bodies it has."""
+    _find_body(_step_scene(Path(path), step_deflection_m), Path(path), body)
+
+
 def _step_body(path: Path, body: str, step_deflection_m: float):
     """One named body of a STEP file, in the file's frame (its placement applied)."""
     scene = _step_scene(path, step_deflection_m)
-    names = [str(n) for n in scene.graph.nodes_geometry]
-    for n in scene.graph.nodes_geometry:
-        T, geom = scene.graph[n]
-        if str(n) == body or str(geom) == body:
-            mesh = scene.geometry[geom].copy()
-            mesh.apply_transform(T)
-            return mesh
-    raise MeshFileError(path, f'expected a body named "{body}", found bodies: {", ".join(names)}')
+    T, geom = scene.graph[_find_body(scene, path, body)]
+    mesh = scene.geometry[geom].copy()
+    mesh.apply_transform(T)
+    return mesh
 
 
 def _read(path: Path, step_deflection_m: float):
@@ -388,5 +399,6 @@ def multi_body_warning(path: Path, bodies: list[str]) -> str:
             "into one part; name one with geometry.body, or import the assembly with `asmplan import`")
 
 
-__all__ = ["LoadedMesh", "MeshFileError", "count_triangles", "load_mesh_file", "multi_body_warning",
+__all__ = ["LoadedMesh", "MeshFileError", "check_step_body", "count_triangles", "load_mesh_file",
+           "multi_body_warning",
            "step_body_names"]

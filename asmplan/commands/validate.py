@@ -45,9 +45,13 @@ def summary(product: Product) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..parts.input_warnings import geometry_warnings
+    from ..knowledge.errors import ProductError
+    from ..parts.input_warnings import body_issues, geometry_warnings
 
     product = load_product(args.product)
+    issues = body_issues(product)
+    if issues:
+        raise ProductError(issues)
     info = summary(product)
     warnings = geometry_warnings(product)
     if args.json:

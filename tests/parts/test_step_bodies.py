@@ -76,3 +76,20 @@ def test_body_on_a_non_step_file_is_an_input_error(folder):
     (folder / "p.yaml").write_text(PRODUCT.format(file="part.stl"))
     with pytest.raises(ProductError, match='expected "body" only with a multi-body STEP file'):
         load_product(folder / "p.yaml")
+
+
+def test_validate_reports_an_unknown_body_at_its_key(folder, capsys):
+    """validate reads the STEP file's bodies: a misspelt ``body`` is an input error at its
+    line and key (exit 2), not found only when a later command loads the part."""
+    from asmplan.cli import main
+
+    (folder / "p.yaml").write_text(PRODUCT.format(file="bracket.step").replace("body: post", "body: pots"))
+    assert main(["validate", str(folder / "p.yaml")]) == 2
+    err = capsys.readouterr().err
+    line = next(i for i, t in enumerate((folder / "p.yaml").read_text().splitlines(), 1) if "pots" in t)
+    assert f"p.yaml:{line}:" in err
+    assert 'parts[1].geometry.body: mesh file bracket.step: expected a body named "pots", found bodies:' in err
+    for name in BODIES:
+        assert name in err
+    (folder / "p.yaml").write_text(PRODUCT.format(file="bracket.step"))
+    assert main(["validate", str(folder / "p.yaml")]) == 0
