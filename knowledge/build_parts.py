@@ -195,4 +195,5 @@ class PartsBuilder(BuilderBase):
         return Handling(
             insertion_direction=_unit(h["insertion_direction"]) if h["insertion_direction"] else None,
             grasp=grasp, max_clamp_force_N=h["max_clamp_force"], max_speed_m_s=h["max_speed"],
-            max_acceleration_m_s2=h["max_acceleration"], finger=h["finger"])
+            max_acceleration_m_s2=h["max_acceleration"], finger=h["finger"],
+            operation=h["operation"], note=h["note"] or "")

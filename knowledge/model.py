@@ -181,6 +181,10 @@ class Handling:
     max_speed_m_s: float | None = None
     max_acceleration_m_s2: float | None = None
     finger: str | None = None  # a named pad set of the gripper (``Gripper.fingers``)
+    # placed by another operation ("press_tool", "manual", "fastening") at its place in the
+    # sequence: no grasp, no path, not simulated; ``note`` says what that operation does
+    operation: str | None = None
+    note: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -447,6 +451,11 @@ class Product:
         name = self.part(part).handling.finger
         g = self.resources.gripper
         return g if name is None else g.with_finger(name)
+
+    def placed_by(self, part: str) -> str | None:
+        """The operation that places ``part`` instead of the gripper (``handling.operation``:
+        press_tool, manual, fastening), or None for a gripper step."""
+        return self.part(part).handling.operation
 
     def is_fixtured(self, part: str) -> bool:
         return self.part(part).fixtured or any(f.holds == part for f in self.resources.fixtures)

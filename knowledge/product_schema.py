@@ -88,14 +88,41 @@ GRASP = Map({
     "closing_axis": Field(DIRECTION), "approach_axis": Field(DIRECTION),
     "width": Field(Num("length", positive=True)), "offset": Field(Vec(3, "length")),
 }, name="a grasp hint")
+OPERATIONS = ("press_tool", "manual", "fastening")
+_GRIPPER_HANDLING = ("grasp", "finger", "max_clamp_force", "max_speed", "max_acceleration")
+
+
+def _operation_check(v: dict[str, Any], path: PathKey, ctx: Context) -> None:
+    """A part placed by another operation has no gripper handling; a note needs an operation."""
+    if v["operation"] is None:
+        if v["note"] is not None:
+            ctx.error((*path, "note"), 'a note describes "operation" (the operation that places '
+                      'the part): expected "operation" beside it, found none')
+        return
+    for k in _GRIPPER_HANDLING:
+        if v[k] is not None:
+            ctx.error((*path, k), f'the part is placed by another operation ("operation: '
+                      f'{v["operation"]}"), not by the gripper: expected no "{k}", found one')
+
+
 HANDLING = Map({
+    "operation": Field(Str(OPERATIONS)),
+    "note": Field(Str(expected="what the operation does (e.g. the press tool and its force)")),
     "insertion_direction": Field(DIRECTION),
     "grasp": Field(GRASP),
     "max_clamp_force": Field(Num("force", positive=True)),
     "max_speed": Field(Num("speed", positive=True)),
     "max_acceleration": Field(Num("acceleration", positive=True)),
     "finger": Field(Str(expected="the name of one of the gripper's fingers")),
-}, name="handling knowledge")
+}, name="handling knowledge", check_fn=_operation_check)
+
+
+def _part_check(v: dict[str, Any], path: PathKey, ctx: Context) -> None:
+    h = v["handling"]
+    if v["fixtured"] and isinstance(h, dict) and h.get("operation") is not None:
+        ctx.error((*path, "handling", "operation"), 'a fixtured part is in place from the '
+                  'start: expected no "operation" (placed by another operation) beside '
+                  '"fixtured: true", found both')
 PART = Map({
     "name": Field(Str(expected="a part name"), required=True),
     "description": Field(Str(), default=""),
@@ -109,7 +136,7 @@ PART = Map({
     "fixtured": Field(Bool(), default=False),
     "features": Field(ListOf(FEATURE), default=[]),
     "handling": Field(HANDLING),
-}, name="a part")
+}, name="a part", check_fn=_part_check)
 CLEARANCE_RANGE = Map({"min": Field(Num("length"), required=True),
                        "max": Field(Num("length"), required=True)}, name="a clearance range")
 MATE = Map({

@@ -163,5 +163,38 @@ def propose_mates(parts: list[ImportedPart], settings: ImportSettings, mesh: boo
             start = pf_pt + af * top
             mates.append(ProposedMate(pm.name, fm, pf.name, ff, kind, mouth, axis, engaged, fit, tuple(ev),
                                       start))
+    mates = _one_entry_side(mates)
     mates.sort(key=lambda m: (m.female_part, m.female.name, m.male_part, m.male.name))
     return mates, notes
+
+
+def _one_entry_side(mates: list[ProposedMate]) -> list[ProposedMate]:
+    """One male feature through several coaxial through females (a dowel through a leg, a
+    rail and the leg again) enters them all from one side: where the sides chosen per pair
+    disagree, the side most of them chose (ties: the first pair's, in the female's order)
+    wins, and the others are entered from their other mouth (with the evidence)."""
+    from dataclasses import replace
+
+    groups: dict[tuple[str, str], list[int]] = {}
+    for i, m in enumerate(mates):
+        if m.simulated and m.female.through and not m.female.counterbore:
+            groups.setdefault((m.male_part, m.male.name), []).append(i)
+    out = list(mates)
+    for idx in groups.values():
+        ref = mates[idx[0]].axis
+        signs = [1 if float(np.dot(mates[i].axis, ref)) > 0 else -1 for i in idx]
+        if len(idx) < 2 or abs(sum(signs)) == len(idx):
+            continue
+        keep = 1 if sum(signs) >= 0 else -1
+        for i, sg in zip(idx, signs, strict=True):
+            if sg == keep:
+                continue
+            m = mates[i]
+            length = m.female.t1_m - m.female.t0_m
+            start = m.engage_start_m
+            out[i] = replace(
+                m, axis=-m.axis, mouth_m=m.mouth_m - m.axis * length,
+                engage_start_m=None if start is None else start - m.axis * m.engaged_m,
+                evidence=(*m.evidence, f"entered from its other mouth, as {m.male_part}."
+                          f"{m.male.name}'s other through mates (one insertion for the male)"))
+    return out

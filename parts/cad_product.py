@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..knowledge.frames import rotation_between
+from .cad_operations import operation_hint
 from .cad_types import CadImportError, ImportedPart, ImportResult, ProposedMate, _apply, _apply_all
 
 
@@ -214,6 +215,12 @@ def product_yaml(result: ImportResult, mesh_dir_rel: str) -> str:
             R_start, why_start = rotations[p.name]
             w(f"    start: {{location: feeder, xyz: {_vec_mm(starts[p.name])}, "
               f"rpy: {_vec(_rpy_deg(R_start))}}}   # {why_start}, 15 mm above the table")
+        hint = None if p.name == result.base else operation_hint(
+            p, result.mates, _revolved_primitive(p))
+        if hint is not None:
+            w(f"    # not a gripper step: {hint.evidence}")
+            w(f"    handling: {{operation: {hint.operation}, insertion_direction: "
+              f"{_vec(hint.insertion_direction)}, note: \"{hint.note}\"}}")
         lines: list[str] = []
         comments: list[str] = []
         T_def = np.linalg.inv(T) @ p.T_assembly_part  # definition frame -> written part frame

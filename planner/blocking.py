@@ -136,6 +136,11 @@ def candidate_directions(product: Product, part: str) -> tuple[RemovalDirection,
         for v in (-ins, ins):
             if not any(float(np.dot(v, w)) >= _SAME_DIRECTION_COS for w in vectors):
                 vectors.append(v)
+    hint = product.part(part).handling.insertion_direction
+    if product.placed_by(part) is not None and hint is not None:  # the operation's own axis
+        v = -np.asarray(hint, dtype=float) / float(np.linalg.norm(hint))
+        if not any(float(np.dot(v, w)) >= _SAME_DIRECTION_COS for w in vectors):
+            vectors.append(v)
     out = []
     for v in vectors:
         names = tuple(sorted(
@@ -235,6 +240,22 @@ def capture_m(product: Product, part: str) -> float:
     return out
 
 
+def _operation_seat_cleared(product: Product, part: str, dirs: tuple[RemovalDirection, ...],
+                            blocks: list[frozenset[str]]) -> list[frozenset[str]]:
+    """A part placed by another operation along its declared ``handling.insertion_direction``
+    (a tenon into its mortise, a bearing pressed flush): the parts that block it in every
+    direction are its seat, which that operation enters (a line-to-line joint the sweep meets
+    at zero depth); along the declared direction they do not block it (as a press fit's
+    partner along the fit's axis). Other parts still block it there."""
+    hint = product.part(part).handling.insertion_direction
+    if product.placed_by(part) is None or hint is None or not blocks:
+        return blocks
+    seat = frozenset.intersection(*blocks)
+    h = np.asarray(hint, dtype=float) / float(np.linalg.norm(hint))
+    return [b - seat if float(np.dot(d.insertion, h)) >= _SAME_DIRECTION_COS else b
+            for d, b in zip(dirs, blocks, strict=True)]
+
+
 def blocking_table(product: Product, oracle: GeometryOracle, *, support_probe_m: float = 1.0e-4,
                    table_contact_m: float = 1.0e-4, margin_m: float = 1.0e-3) -> BlockingTable:
     """Sweep every part along every candidate direction in the full assembly.
@@ -268,6 +289,7 @@ def blocking_table(product: Product, oracle: GeometryOracle, *, support_probe_m:
             # the table top z = 0: reached when the part's lowest point goes below it
             dz = float(d.vector[2])
             tabs.append(dz < -1e-9 and bounds[p][0, 2] + dz * dist < -table_contact_m)
+        blocks = _operation_seat_cleared(product, p, dirs, blocks)
         directions[p], blockers[p], table[p] = dirs, tuple(blocks), tuple(tabs)
         on_table[p] = bool(bounds[p][0, 2] <= table_contact_m)
         probe = max(support_probe_m, capture_m(product, p))

@@ -206,7 +206,8 @@ class MotionPlanner:
         try:
             return [self.plan_step(index, part, fallback_direction)]
         except NoGraspError as exc:
-            if not self.settings.regrasp or self.product.is_fixtured(part):
+            if not self.settings.regrasp or self.product.is_fixtured(part) \
+                    or self.product.placed_by(part) is not None:
                 raise
             return plan_regrasp(self, index, part, fallback_direction, exc)
 
@@ -228,6 +229,20 @@ class MotionPlanner:
             T = product.T_world_assembled(part)
             step = Step(index, part, "fixture", (), T, T,
                         start_note="held by a fixture in its assembled pose from the start")
+            if part not in self.placed:
+                self.placed.append(part)
+            return step, StepTiming(part, time.perf_counter() - t_start,
+                                    cpu_s=time.process_time() - c_start)
+        operation = product.placed_by(part)
+        if operation is not None and regrasp_to is None:
+            # placed by another operation (a press tool, a manual or fastening station) at
+            # its assembled pose at this point of the sequence: no grasp, no path
+            h = product.part(part).handling
+            step = Step(index, part, "operation", (), self.start_poses[part],
+                        product.T_world_assembled(part), start_note=(
+                            f"placed by {operation} at its assembled pose: not planned for the "
+                            "robot" + (f" ({h.note})" if h.note else "")),
+                        operation=operation, operation_note=h.note)
             if part not in self.placed:
                 self.placed.append(part)
             return step, StepTiming(part, time.perf_counter() - t_start,

@@ -30,7 +30,9 @@ from .trajectory import Trajectory
 PLAN_FORMAT = "asmplan-plan"
 PLAN_VERSION = 1
 
-StepKind = Literal["fixture", "insert", "place", "regrasp"]
+StepKind = Literal["fixture", "operation", "insert", "place", "regrasp"]
+# steps the robot does not plan: no grasp, no trajectory
+NOT_ROBOT_KINDS = ("fixture", "operation")
 
 
 def _pose(value: Any, name: str) -> np.ndarray:
@@ -391,7 +393,9 @@ class Step:
     """One step of the plan.
 
     ``kind``: "fixture" (the part is in place from the start, held by a fixture; no
-    trajectory), "insert" (pick, carry and insert along the mate axis), "place" (no mate
+    trajectory), "operation" (placed at its assembled pose at this point of the sequence by
+    another operation, ``operation``: press_tool, manual or fastening, ``operation_note``
+    what it does; no grasp, no trajectory, not planned for the robot), "insert" (pick, carry and insert along the mate axis), "place" (no mate
     with the parts already placed: lowered onto its pose along ``insertion_direction``) or
     "regrasp" (no grasp holds the part both where it lies and where it goes: it is put down
     on a free area of the table in another orientation, ``T_world_final``, and picked again
@@ -425,11 +429,17 @@ class Step:
     notes: tuple[str, ...] = ()
     arm: ArmMotion | None = None
     press: PressOperation | None = None
+    operation: str | None = None
+    operation_note: str = ""
 
     def __post_init__(self) -> None:
-        if self.kind not in ("fixture", "insert", "place", "regrasp"):
-            raise ValueError(f"step {self.index + 1}: kind expected fixture, insert, place or "
-                             f"regrasp, found {self.kind!r}")
+        if self.kind not in ("fixture", "operation", "insert", "place", "regrasp"):
+            raise ValueError(f"step {self.index + 1}: kind expected fixture, operation, insert, "
+                             f"place or regrasp, found {self.kind!r}")
+        if (self.kind == "operation") != (self.operation is not None):
+            raise ValueError(f"step {self.index + 1} ({self.part}): an operation step names its "
+                             f"operation and only it does: kind {self.kind!r}, operation "
+                             f"{self.operation!r}")
         object.__setattr__(self, "T_world_start", _pose(self.T_world_start, "T_world_start"))
         object.__setattr__(self, "T_world_final", _pose(self.T_world_final, "T_world_final"))
         if self.T_world_pre_insertion is not None:
@@ -445,7 +455,7 @@ class Step:
                 raise ValueError(f"path_T_world_gripper: expected (N, 4, 4), found {p.shape}")
             p.setflags(write=False)
             object.__setattr__(self, "path_T_world_gripper", p)
-        if self.kind != "fixture" and (self.grasp is None or self.trajectory is None):
+        if self.kind not in NOT_ROBOT_KINDS and (self.grasp is None or self.trajectory is None):
             raise ValueError(f"step {self.index + 1} ({self.part}): a {self.kind} step needs a "
                              "grasp and a trajectory, found none")
         if self.arm is not None and (self.trajectory is None
@@ -489,6 +499,9 @@ class Step:
             "arm": None if self.arm is None else self.arm.to_dict(),
             "cycle_time_s": float(self.cycle_time_s),
             "press": None if self.press is None else self.press.to_dict(),
+            "operation": None if self.operation is None else {
+                "name": self.operation, "note": self.operation_note,
+                "planned_for_robot": False, "simulated": False},
         }
 
     @classmethod
@@ -514,6 +527,8 @@ class Step:
             checked_poses=int(d.get("checked_poses", 0)), notes=tuple(d.get("notes", ())),
             arm=None if d.get("arm") is None else ArmMotion.from_dict(d["arm"]),
             press=None if d.get("press") is None else PressOperation.from_dict(d["press"]),
+            operation=None if d.get("operation") is None else d["operation"]["name"],
+            operation_note="" if d.get("operation") is None else d["operation"]["note"],
         )
 
 

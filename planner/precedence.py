@@ -125,7 +125,10 @@ def _rule_holders(product: Product) -> dict[str, dict[str, PrecedenceRule]]:
 
 
 def _stable_alone(product: Product, table: BlockingTable, part: str) -> bool:
-    return product.is_fixtured(part) or table.on_table[part]
+    """Fixtured, on the table, or placed by another operation (``handling.operation``: the
+    press tool, joint or fastening that places it holds it there)."""
+    return (product.is_fixtured(part) or table.on_table[part]
+            or product.placed_by(part) is not None)
 
 
 def _fixture_names(product: Product, part: str) -> list[str]:

@@ -363,6 +363,8 @@ def _ranked(c: _Compiled, labels: list[_Label]) -> tuple[RankedSequence, ...]:
                          for i, m in c.dir_masks[p] if not (m & done))
             if c.product.is_fixtured(name):
                 held, stab = tuple("fixture:" + f for f in _fixture_names(c.product, name)), "fixtured"
+            elif c.product.placed_by(name) is not None:
+                held, stab = (f"operation:{c.product.placed_by(name)}",), "operation"
             elif c.table.on_table[name]:
                 held, stab = ("table",), "table"
             elif c.support[p] & done:

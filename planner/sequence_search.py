@@ -130,7 +130,8 @@ class _Compiled:
         self.travel_lb = [0.0 if s is None else float(np.linalg.norm(s - x))
                           for s, x in zip(self.start, self.place, strict=True)]
         self.tool = [("fixture:" + _fixture_names(product, p)[0]) if product.is_fixtured(p)
-                     else "gripper" for p in names]
+                     else ("operation:" + str(product.placed_by(p)))
+                     if product.placed_by(p) is not None else "gripper" for p in names]
         # directions as class ids (equal within the angle tolerance): comparisons are ints
         classes: list[np.ndarray] = []
 

@@ -16,7 +16,7 @@ import numpy as np
 from .. import __version__
 from ..fileio import atomic_write_text
 from ..knowledge.model import Product
-from ..planner.plan import Plan
+from ..planner.plan import NOT_ROBOT_KINDS, Plan
 from . import plots
 from .fits import unresolved_fits
 from .planviews import PlanViews, path_view_name
@@ -179,6 +179,7 @@ def _process_sheet(inp: ReportInputs, step: Any) -> dict[str, Any]:
                        for s in (inp.plan.steps if inp.plan is not None else ()))
     rows: list[tuple[str, str]] = [("part", step.part), ("operation", step.kind),
                                    ("pick from", "fixture" if step.kind == "fixture" else
+                                    f"placed by {step.operation}" if step.kind == "operation" else
                                     start or ("table (where the regrasp put it)" if picked_again
                                               else product.part(step.part).start_location))]
     if step.kind == "regrasp":
@@ -291,7 +292,11 @@ def _step_rows(inp: ReportInputs, views: Views | None, folder: Path,
             row["tightest"] = "–"
         if step.kind == "fixture":
             row["summary"] = "Held by the fixture from the start; not handled by the robot."
-        if views is not None and step.kind != "fixture":
+        elif step.kind == "operation":
+            row["summary"] = (f"Placed by {step.operation} at its assembled pose at this point "
+                              "of the sequence; not planned for the robot, not simulated"
+                              + (f" ({step.operation_note})." if step.operation_note else "."))
+        if views is not None and step.kind not in NOT_ROBOT_KINDS:
             name = (paths or {}).get(step.index, "")  # rendered while simulating
             if not name:
                 name = path_view_name(step.index)

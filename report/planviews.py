@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..knowledge.model import Product
-from ..planner.plan import Plan
+from ..planner.plan import NOT_ROBOT_KINDS, Plan
 from . import plots
 from .steppictures import StepPictures, grip_limit, render_step_pictures
 from .views import Views
@@ -125,7 +125,7 @@ def render_plan_views(product: Product, geometry: ProductGeometry, sequence: Any
     assembled, exploded = views.render_product(folder)
     out.images = {"assembled": assembled, "exploded": exploded}
     for step in plan.steps:
-        if step.kind != "fixture":
+        if step.kind not in NOT_ROBOT_KINDS:
             name = path_view_name(step.index)
             views.path_view(plan, step, folder / name)
             out.paths[step.index] = name

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..knowledge.model import Product
-from ..planner.plan import Plan, Step
+from ..planner.plan import NOT_ROBOT_KINDS, Plan, Step
 from . import plots
 from .views import Views
 
@@ -73,7 +73,7 @@ def render_step_pictures(product: Product, plan: Plan, views: Views | None, step
     base = step_base_name(step.index)
     outcome = res.outcome if res is not None else None
     entries: list[dict[str, str]] = []
-    if views is not None and step.kind != "fixture":
+    if views is not None and step.kind not in NOT_ROBOT_KINDS:
         failed = outcome is not None and not outcome.success
         rec = res.record if res is not None else None
         placed = {s.part: s.T_world_final for s in plan.steps if s.index < step.index}

@@ -190,6 +190,9 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
     """:func:`simulate_step` for one ``step`` given where every part is (``state``:
     poses and the parts in place, :func:`asmplan.planner.plan.assembly_state`)."""
     index = step.index
+    if step.kind == "operation":  # the part stands at its assembled pose from now on
+        return StepResult(index, step.part, step.kind, None, None, None,
+                          (f"placed by {step.operation}: not simulated",))
     if step.kind == "fixture" or step.trajectory is None or step.grasp is None:
         return StepResult(index, step.part, step.kind, None, None, None,
                           ("in place from the start (held by a fixture): not simulated",))

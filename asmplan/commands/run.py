@@ -56,6 +56,8 @@ def summary_table(result: RunResult) -> str:
         traj = step.trajectory
         cycle = f"{step.cycle_time_s:.2f}" if traj is not None else "-"
         verdict = "-" if o is None else ("ok" if o.success else "FAILED: " + "; ".join(o.reasons))
+        if step.kind == "operation":
+            verdict = f"placed by {step.operation}: not simulated"
         rows.append((str(step.index + 1), step.part, step.kind, cycle,
                      f"{o.peak_clamp_force_N:.2f}" if o else "-",
                      f"{step.clamp.slip_limit_N:.2f}" if step.clamp else "-",
@@ -120,7 +122,12 @@ def run(args: argparse.Namespace) -> int:
         print(f"{product.name}: step(s) {failed} fail physically at fidelity {result.fidelity.name}",
               file=out)
     else:
-        print(f"{product.name}: every step succeeds at fidelity {result.fidelity.name}", file=out)
+        ops = [s for s in result.plan.steps if s.kind == "operation"] if result.plan else []
+        also = (f" ({len(ops)} placed by another operation, not simulated: "
+                f"{', '.join(f'{s.part} by {s.operation}' for s in ops)})" if ops else "")
+        print(f"{product.name}: every simulated step succeeds at fidelity "
+              f"{result.fidelity.name}{also}" if ops else
+              f"{product.name}: every step succeeds at fidelity {result.fidelity.name}", file=out)
     cpu = ", ".join(f"{k} {v:.1f} s" for k, v in result.cpu_s.items())
     if result.while_simulating_cpu_s > 0:  # the report's plan-only pictures
         cpu += f", of it {result.while_simulating_cpu_s:.1f} s while simulating"

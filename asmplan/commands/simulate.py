@@ -141,7 +141,9 @@ def run(args: argparse.Namespace) -> int:
     n_sim = sum(s.simulated for s in results.steps)
     for s in results.steps:
         if not s.simulated:
-            print(f"step {s.index + 1} {s.part}: {s.kind}, not simulated")
+            print(f"step {s.index + 1} {s.part}: "
+                  + (s.warnings[0] if s.kind == "operation" and s.warnings
+                     else f"{s.kind}, not simulated"))
             continue
         o = s.outcome
         assert o is not None

@@ -153,8 +153,9 @@ class PlanSweep:
     def __post_init__(self) -> None:
         n = len(self.plan.steps)
         steps = tuple(self.steps) or tuple(k for k, st in enumerate(self.plan.steps)
-                                           if st.kind != "fixture")
-        bad = [k for k in steps if not 0 <= k < n or self.plan.steps[k].kind == "fixture"]
+                                           if st.kind not in ("fixture", "operation"))
+        bad = [k for k in steps if not 0 <= k < n
+               or self.plan.steps[k].kind in ("fixture", "operation")]
         if bad:
             raise ValueError(f"PlanSweep.steps: expected indices of non-fixture steps in 0..{n - 1}, "
                              f"found {bad}")
