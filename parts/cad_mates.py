@@ -169,25 +169,26 @@ def propose_mates(parts: list[ImportedPart], settings: ImportSettings, mesh: boo
 
 
 def _one_entry_side(mates: list[ProposedMate]) -> list[ProposedMate]:
-    """One male feature through several coaxial through females (a dowel through a leg, a
-    rail and the leg again) enters them all from one side: where the sides chosen per pair
-    disagree, the side most of them chose (ties: the first pair's, in the female's order)
-    wins, and the others are entered from their other mouth (with the evidence)."""
+    """One male feature through several coaxial through females of ONE part (a dowel across
+    a leg, through its two holes on either side of a mortise) enters them from one side: where
+    the sides chosen per pair disagree, the side most of the male's through mates chose (over
+    every part; ties: the first pair's) wins, and the others are entered from their other
+    mouth (with the evidence). Mates with different parts keep their sides (a cover lowered
+    over a shaft enters it from the other side than the shaft entered its bearings)."""
     from dataclasses import replace
 
-    groups: dict[tuple[str, str], list[int]] = {}
+    males: dict[tuple[str, str], list[int]] = {}
     for i, m in enumerate(mates):
         if m.simulated and m.female.through and not m.female.counterbore:
-            groups.setdefault((m.male_part, m.male.name), []).append(i)
+            males.setdefault((m.male_part, m.male.name), []).append(i)
     out = list(mates)
-    for idx in groups.values():
+    for idx in males.values():
         ref = mates[idx[0]].axis
-        signs = [1 if float(np.dot(mates[i].axis, ref)) > 0 else -1 for i in idx]
-        if len(idx) < 2 or abs(sum(signs)) == len(idx):
-            continue
-        keep = 1 if sum(signs) >= 0 else -1
-        for i, sg in zip(idx, signs, strict=True):
-            if sg == keep:
+        sign = {i: 1 if float(np.dot(mates[i].axis, ref)) > 0 else -1 for i in idx}
+        keep = 1 if sum(sign.values()) >= 0 else -1
+        for i in idx:
+            same = [j for j in idx if mates[j].female_part == mates[i].female_part]
+            if sign[i] == keep or len({sign[j] for j in same}) < 2:
                 continue
             m = mates[i]
             length = m.female.t1_m - m.female.t0_m

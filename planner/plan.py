@@ -395,7 +395,8 @@ class Step:
     ``kind``: "fixture" (the part is in place from the start, held by a fixture; no
     trajectory), "operation" (placed at its assembled pose at this point of the sequence by
     another operation, ``operation``: press_tool, manual or fastening, ``operation_note``
-    what it does; no grasp, no trajectory, not planned for the robot), "insert" (pick, carry and insert along the mate axis), "place" (no mate
+    what it does; no grasp, no trajectory, not planned for the robot), "insert" (pick,
+    carry and insert along the mate axis), "place" (no mate
     with the parts already placed: lowered onto its pose along ``insertion_direction``) or
     "regrasp" (no grasp holds the part both where it lies and where it goes: it is put down
     on a free area of the table in another orientation, ``T_world_final``, and picked again

@@ -19,6 +19,8 @@ PRECEDENCES = {
                          ("locating_pin_1", "workpiece")],
     "bearing_housing": [("bearing_1", "spacer"), ("spacer", "bearing_2"), ("bearing_2", "cover")],
     "angle_bracket": [("dowel_1", "side_block"), ("dowel_2", "side_block"), ("post", "knob")],
+    # the dowel crosses rail_x's tenon (drawbored): the rail first
+    "mortise_frame": [("rail_x", "dowel")],
 }
 
 
@@ -76,7 +78,23 @@ PRESET = {
         # anchors, it turned 0.17 deg in the pads and jammed 0.65 mm in
         "knob": "balanced",
     },
+    # bearings and spacer: placed by a press tool (handling.operation, written by the
+    # importer), at their assembled poses when the shaft and cover come. The cover goes over
+    # the shaft at FAST (its 2 mm clearance). The shaft (H7/g6, 6 um) jams at FAST (tilt
+    # 1.5 deg, one-sided contact on bearing_2); at BALANCED it is seated (axial error
+    # 0.001 mm at the end of lowering) and, released, slides 2.0 mm down its bearings onto the
+    # table: the fixture's shaft has no shoulder or retaining ring (xfail below)
+    "bearing_housing": {"shaft": "balanced", "cover": "fast"},
+    # rail_x, rail_y (tenons: manual) and the dowel (flush with both faces of the leg: a
+    # press tool) are all placed by other operations: nothing for the gripper
+    "mortise_frame": {},
 }
+
+# the imported products' steps that the ground truth calls not feasible for a gripper (and
+# are not the base or a fastening) become declared operation steps
+OPERATIONS = {"bearing_housing": {"bearing_1": "press_tool", "spacer": "press_tool",
+                                  "bearing_2": "press_tool"},
+              "mortise_frame": {"rail_x": "manual", "rail_y": "manual", "dowel": "press_tool"}}
 
 
 def _feasible(name: str) -> set[str]:
@@ -90,7 +108,11 @@ def _feasible(name: str) -> set[str]:
 # dowel_2 onto a grasp that slipped 3.85 deg; with the hold criterion (planner/grasp_hold.py)
 # the washer is pinched across its rim (0.9 mm^2 per pad, 60 mN needed) and dowel_2 held across
 # its flank (21.7 mm^2, lever 3.8 mm): both simulate.
-_SIMULATED = sorted(PRESET)
+_SIMULATED = [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=(
+    "the shaft is seated at BALANCED (axial error 0.001 mm when lowered) and, released, slides "
+    "2.0 mm down its H7/g6 bearings onto the table: bearing_housing.step's shaft has no "
+    "shoulder or retaining ring (a fixture model fault, make_fixtures.py)")))
+               if n == "bearing_housing" else n for n in sorted(PRESET)]
 
 
 @pytest.mark.slow
@@ -111,6 +133,8 @@ def test_imported_fixture_simulates_every_feasible_step(name, tmp_path):
     feasible = _feasible(name)
     assert feasible <= set(order), feasible - set(order)  # every feasible step is planned
     assert feasible <= set(PRESET[name])  # every feasible step is simulated
+    ops = {s.part: s.operation for s in result.plan.steps if s.kind == "operation"}
+    assert ops == OPERATIONS.get(name, {}), ops
     failed = {}
     for i, step in enumerate(result.plan.steps):
         if step.part not in PRESET[name]:
@@ -131,7 +155,14 @@ def test_bearing_seated_flush_in_its_bore_has_no_gripper_grasp(tmp_path):
 
     truth = yaml.safe_load((CAD / "bearing_housing.truth.yaml").read_text())
     assert not next(s for s in truth["order"] if s["part"] == "bearing_1")["feasible"]
-    product = _imported("bearing_housing", tmp_path)
+    out = tmp_path / "bearing_housing.yaml"
+    write_product(import_assembly(CAD / "bearing_housing.step"), out)
+    # the importer declares the bearings press-tool steps; without that declaration:
+    lines = out.read_text().splitlines(keepends=True)
+    declared = [k for k, s in enumerate(lines) if s.strip().startswith("handling: {operation:")]
+    assert len(declared) == 3  # bearing_1, spacer, bearing_2
+    out.write_text("".join(s for k, s in enumerate(lines) if k not in declared))
+    product = load_product(out)
     result = run_product(product, RunSettings(fidelity="fast", workers=1, simulate=False))
     assert result.failure is not None
     assert 'part "bearing_1"' in result.failure and "no feasible grasp" in result.failure

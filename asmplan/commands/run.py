@@ -125,7 +125,9 @@ def run(args: argparse.Namespace) -> int:
         ops = [s for s in result.plan.steps if s.kind == "operation"] if result.plan else []
         also = (f" ({len(ops)} placed by another operation, not simulated: "
                 f"{', '.join(f'{s.part} by {s.operation}' for s in ops)})" if ops else "")
-        print(f"{product.name}: every simulated step succeeds at fidelity "
+        n_sim = sum(s.simulated for s in result.results.steps) if result.results else 0
+        print(f"{product.name}: no step is simulated{also}" if ops and not n_sim else
+              f"{product.name}: every simulated step succeeds at fidelity "
               f"{result.fidelity.name}{also}" if ops else
               f"{product.name}: every step succeeds at fidelity {result.fidelity.name}", file=out)
     cpu = ", ".join(f"{k} {v:.1f} s" for k, v in result.cpu_s.items())
