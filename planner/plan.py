@@ -500,9 +500,10 @@ class Step:
             "arm": None if self.arm is None else self.arm.to_dict(),
             "cycle_time_s": float(self.cycle_time_s),
             "press": None if self.press is None else self.press.to_dict(),
-            "operation": None if self.operation is None else {
+            # only on operation steps (plans without them keep their bytes)
+            **({} if self.operation is None else {"operation": {
                 "name": self.operation, "note": self.operation_note,
-                "planned_for_robot": False, "simulated": False},
+                "planned_for_robot": False, "simulated": False}}),
         }
 
     @classmethod

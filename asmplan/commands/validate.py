@@ -29,6 +29,7 @@ def summary(product: Product) -> dict[str, Any]:
         "parts": [{"name": p.name, "geometry": p.geometry.kind,
                    "material": p.material.name if p.material else None,
                    "mass_kg": p.mass_kg, "fixtured": product.is_fixtured(p.name),
+                   "placed_by": p.handling.operation,
                    "features": [f.name for f in p.features], "start": p.start_location}
                   for p in product.parts],
         "mates": [{"name": m.name, "pin": f"{m.pin_part}.{m.pin_feature}",
@@ -64,6 +65,8 @@ def run(args: argparse.Namespace) -> int:
     width = max(len(p.name) for p in product.parts)
     for p in info["parts"]:
         extra = " (fixtured)" if p["fixtured"] else f" from {p['start']}"
+        if p["placed_by"]:
+            extra += f" (placed by {p['placed_by']}: not a gripper step)"
         print(f"  part  {p['name']:<{width}}  {p['geometry']:<9} {p['material'] or 'given mass':<10}"
               f"{extra}")
     for m in info["mates"]:
