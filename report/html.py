@@ -418,6 +418,11 @@ def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True,
         failed = [s for s in steps if s["success"] is False]
         verdict = (f"step(s) {', '.join(str(s['number']) for s in failed)} fail" if failed
                    else "every step succeeds")
+        ops = [s for s in inp.plan.steps if s.kind == "operation"] if inp.plan else []
+        if ops:
+            verdict = verdict.replace("every step", "every simulated step") + (
+                f"; {len(ops)} placed by another operation, not simulated: "
+                + ", ".join(f"{s.part} ({s.operation})" for s in ops))
     cycle_total = sum(s["cycle_s"] for s in steps)
     # run-level warnings: the unresolved-fit paragraphs become one table (one row per mate)
     covered = {u["mate"] for u in unresolved}

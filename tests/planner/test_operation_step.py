@@ -105,3 +105,21 @@ def test_later_step_is_simulated_against_the_placed_part(placed_by_hand):
     assert "part2" in json.dumps(r.scene)  # in the scene, as the mate partner
     # seated within the H7/g6 fit's position tolerance on the placed part (analytic: 0)
     assert r.outcome.final_position_error_m < product.process.position_tolerance_m
+
+
+@pytest.mark.slow
+def test_run_reports_the_operation_step(tmp_path, capsys):
+    path = _station(tmp_path, "      operation: manual\n      note: \"set by the operator\"\n")
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--fidelity", "fast", "-o", str(out), "-j", "1"]) == 0
+    text = capsys.readouterr().out
+    assert "placed by manual: not simulated" in text
+    assert "1 placed by another operation, not simulated: part2 by manual" in text
+    results = json.loads((out / "results.json").read_text())
+    step = next(s for s in results["steps"] if s["part"] == "part2")
+    assert step["simulated"] is False and step["warnings"] == ["placed by manual: not simulated"]
+    assert all(s["simulated"] and s["success"] for s in results["steps"]
+               if s["part"] in ("part3", "part4"))
+    html = (out / "report.html").read_text()
+    assert "Placed by manual at its assembled pose" in html and "set by the operator" in html
+    assert "part2 (manual)" in html  # in the verdict
