@@ -277,3 +277,19 @@ def test_import_refuses_to_overwrite_a_file_it_did_not_write(tmp_path):
     assert not (tmp_path / "ok_parts" / "old.stl").exists()
     assert sorted(p.name for p in (tmp_path / "ok_parts").iterdir()) == sorted(
         [".asmplan-import", "angle_bracket.stl", "knob.stl", "side_block.stl"])
+
+
+def test_parts_the_truth_calls_no_gripper_step_are_declared_operations(imported):
+    """Every part the ground truth calls not feasible for a gripper (not the base, not a
+    screwed fastener) is written with ``handling.operation`` (a tenon: manual; a ring or
+    dowel flush in one part: press_tool), and no other part is."""
+    from asmplan.parts.cad_product import product_yaml
+
+    name, src, result, truth = imported
+    doc = yaml.safe_load(product_yaml(result, "meshes"))
+    got = {p["name"]: p["handling"]["operation"] for p in doc["parts"]
+           if (p.get("handling") or {}).get("operation")}
+    want = {s["part"]: ("manual" if "tenon" in s["why"] else "press_tool")
+            for s in truth["order"] if not s["feasible"] and s["part"] != truth["base"]
+            and "fastening" not in s["why"]}
+    assert got == want, (name, src)
