@@ -198,14 +198,15 @@ class SequenceStep:
     free_insertions : tuple of str
         Every insertion direction that was free at this step.
     held_by : tuple of str
-        What holds the part once placed: ``"fixture:<name>"``, ``"table"``, or part names
-        (supporting or mated parts already placed).
+        What holds the part once placed: ``"fixture:<name>"``, ``"operation:<operation>"``,
+        ``"table"``, or part names (supporting or mated parts already placed).
     stability : str
-        ``"fixtured"``, ``"table"``, ``"resting"`` (something under it), ``"rule"`` (a
+        ``"fixtured"``, ``"operation"`` (placed and held by another operation,
+        ``handling.operation``), ``"table"``, ``"resting"`` (something under it), ``"rule"`` (a
         knowledge rule "q before part" says it goes onto q, placed) or ``"mated"`` (held by
         mates only: one unit of stability risk).
     tool : str
-        ``"gripper"`` or ``"fixture:<name>"``.
+        ``"gripper"``, ``"fixture:<name>"`` or ``"operation:<operation>"``.
     unreachable : str
         Why the gripper cannot do this step in this order ("" when it can).
     """
