@@ -113,6 +113,34 @@ def test_the_pneumatic_piston_goes_in_at_balanced():
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "model defect (measured on main 3752869, BALANCED with the exact fit contact): the front cap, "
+    "held on its 40 mm flange (line contacts along its axis, pitch resisted by the pads' torsion, "
+    "analytic 0.22 N m), turns 1.8 deg in the fingers within 80 ms of the rod's first touch on its "
+    "bore chamfer at 0.2 N (< 5 mN m): the fit contact solves the held part as a free body whose "
+    "pads' normals act only in Bullet's step (feature_contact.py, known limits). The rod, tilted "
+    "0.39 deg by its piston's 82 um clearance (tip 0.79 mm low, inside the 0.5 + 0.5 mm chamfers), "
+    "is not lifted; the cap's flange, line-to-line with the table, is then driven into it "
+    "(13-80 N) and the cap jams 1.7 of 58 mm deep, tilted 5.1 deg. With the barrel 10 mm clear of "
+    "the table the cap turns the same way (2.4 deg at 0.2 N), reaches the barrel's mouth 0.27 mm "
+    "low and 0.8 deg tilted and the press stops at 1.06 of 8 mm ('unstable' after the release)"))
+def test_the_pneumatic_front_cap_goes_over_the_rod_and_in_at_balanced():
+    """The front cap slides 50 mm over the rod (H9/f8) and is pressed 8 mm into the barrel
+    (H9/k8): what a real cell does (the rod's 0.79 mm sag is inside the two 0.5 mm chamfers and
+    takes 0.44 N to lift)."""
+    from asmplan.sim.fidelity import BALANCED
+    from asmplan.sim.simulate import simulate_step
+
+    product = load_product(example_path("pneumatic_cylinder"))
+    geometry = ProductGeometry(product)
+    plan = plan_product(product, geometry, PlannerSettings()).plan
+    k = next(i for i, s in enumerate(plan.steps) if s.part == "front_cap")
+    result = simulate_step(plan, k, product, geometry, BALANCED)
+    assert result.success, result.reasons
+    assert result.press is not None and result.press["home"], result.press
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "part"), [("bearing_housing", "bearing_b"), ("hinge", "pin")])
 def test_the_step_that_failed_goes_in_at_balanced(name, part):
     """One BALANCED step per example that used to fail: the bearing unit's second bearing (4.0 deg
