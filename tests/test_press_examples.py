@@ -114,7 +114,7 @@ def test_the_pneumatic_piston_goes_in_at_balanced():
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason=(
-    "model defect (measured on main 3752869, BALANCED with the exact fit contact): the front cap, "
+    "model defect (measured on main 6d0e96d and 3752869, BALANCED with the exact fit contact): the front cap, "
     "held on its 40 mm flange (line contacts along its axis, pitch resisted by the pads' torsion, "
     "analytic 0.22 N m), turns 1.8 deg in the fingers within 80 ms of the rod's first touch on its "
     "bore chamfer at 0.2 N (< 5 mN m): the fit contact solves the held part as a free body whose "
