@@ -30,10 +30,13 @@ spread around it.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from .fit_samples import SKIP_BAND_M, MaterialBound, SampledCircles
 
 CIRCLE_SAMPLES = 96
 """Angles sampled per edge circle."""
@@ -186,32 +189,48 @@ class Profile:
         self._inv_slope = np.where(horizontal, 0.0, self._ab[:, 0]
                                    / np.where(horizontal, 1.0, self._ab[:, 1]))
 
+    def _nearest(self, points: np.ndarray):
+        """Per point (n, 2): each segment's offset (dx, dy (n, k)), squared distance (n, k)
+        and clamped parameter t (n, k), the nearest segment j (n,), its distance (n,) and
+        whether the point lies inside the polygon (n,)."""
+        a, ab = self._a, self._ab
+        px, py = points[:, 0:1], points[:, 1:2]
+        ap0, ap1 = px - a[None, :, 0], py - a[None, :, 1]
+        t = np.clip((ap0 * ab[:, 0] + ap1 * ab[:, 1]) / self._ab2, 0.0, 1.0)
+        dx, dy = ap0 - t * ab[None, :, 0], ap1 - t * ab[None, :, 1]
+        dist2 = dx ** 2 + dy ** 2
+        j = np.argmin(dist2, axis=1)
+        idx = np.arange(points.shape[0])
+        d = np.sqrt(dist2[idx, j])
+        cond = (a[None, :, 1] > py) != (self._b[None, :, 1] > py)
+        xint = a[None, :, 0] + (py - a[None, :, 1]) * self._inv_slope[None, :]
+        inside = np.logical_xor.reduce(cond & (px < xint), axis=1)  # odd crossings
+        return dx, dy, dist2, t, idx, j, d, inside
+
+    def distances(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Signed distance (n,) from 2-D ``points`` (n, 2) to the polygon (positive outside),
+        the nearest segment (n,) and the distance to the second-nearest segment (n,), m:
+        bitwise those of :meth:`sdf` (the same arithmetic, without the directions)."""
+        _, _, dist2, _, _, j, d, inside = self._nearest(points)
+        second = (np.sqrt(np.partition(dist2, 1, axis=1)[:, 1])
+                  if dist2.shape[1] > 1 else np.full(d.shape, np.inf))
+        return np.where(inside, -d, d), j, second
+
     def sdf(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Signed distance (n,) from 2-D ``points`` (n, 2) to the polygon (positive outside)
         and the unit outward direction (n, 2): toward the nearest boundary point from outside
         reversed (away from the material), toward it from inside."""
-        a, ab = self._a, self._ab
-        ap = points[:, None, :] - a[None, :, :]  # (n, k, 2)
-        t = np.clip((ap[..., 0] * ab[:, 0] + ap[..., 1] * ab[:, 1]) / self._ab2, 0.0, 1.0)
-        diff = ap - t[..., None] * ab[None]
-        dist2 = diff[..., 0] ** 2 + diff[..., 1] ** 2
-        j = np.argmin(dist2, axis=1)
-        idx = np.arange(points.shape[0])
-        d = np.sqrt(dist2[idx, j])
+        dx, dy, dist2, t, idx, j, d, inside = self._nearest(points)
         self.last_segment = j
         self.last_t = t[idx, j]
         self.last_second_m = (np.sqrt(np.partition(dist2, 1, axis=1)[:, 1])
                               if dist2.shape[1] > 1 else np.full(d.shape, np.inf))
-        py, px = points[:, 1:2], points[:, 0:1]
-        cond = (a[None, :, 1] > py) != (self._b[None, :, 1] > py)
-        xint = a[None, :, 0] + (py - a[None, :, 1]) * self._inv_slope[None, :]
-        inside = (np.count_nonzero(cond & (px < xint), axis=1) % 2) == 1
         seg_n = self._seg_n[j]
         safe = d > 1e-12
-        out = np.where(safe[:, None], diff[idx, j] / np.where(safe, d, 1.0)[:, None], seg_n)
+        diff = np.column_stack([dx[idx, j], dy[idx, j]])
+        out = np.where(safe[:, None], diff / np.where(safe, d, 1.0)[:, None], seg_n)
         out = np.where(inside[:, None] & safe[:, None], -out, out)
         return np.where(inside, -d, d), out
-
 
     def near_convex_vertex(self, tol_m: float) -> np.ndarray:
         """For the points of the last :meth:`sdf` call: the convex vertex (index) whose
@@ -275,6 +294,16 @@ class FitContact:
         return int(self.gap_m.shape[0])
 
 
+@functools.cache
+def _spread(count: int) -> np.ndarray:
+    """Indices of up to :data:`MAX_POINTS_PER_CIRCLE` of ``count`` samples, spread evenly
+    (read-only: cached)."""
+    idx = np.unique(np.linspace(0, count - 1, min(MAX_POINTS_PER_CIRCLE, count))
+                    .round().astype(int))
+    idx.flags.writeable = False
+    return idx
+
+
 def _candidates(values: np.ndarray, margin_m: float, segments: np.ndarray | None = None
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Contact candidates of sampled circles ``values`` (C, n): (circle index, angle rad) of
@@ -284,9 +313,13 @@ def _candidates(values: np.ndarray, margin_m: float, segments: np.ndarray | None
     n = values.shape[1]
     step = 2.0 * math.pi / n
     lo = values.min(axis=1)
+    below = lo < margin_m
+    if not below.any():  # no sample below the margin: no local minimum, no flat circle
+        return np.zeros(0, dtype=np.intp), np.zeros(0)
     near = values <= (lo + FLAT_TOLERANCE_M)[:, None]
-    flat = (np.count_nonzero(near, axis=1) >= 3) & (lo < margin_m)
-    prev, nxt = np.roll(values, 1, axis=1), np.roll(values, -1, axis=1)
+    flat = (np.add.reduce(near, axis=1) >= 3) & below
+    prev = np.concatenate((values[:, -1:], values[:, :-1]), axis=1)
+    nxt = np.concatenate((values[:, 1:], values[:, :1]), axis=1)
     is_min = (values <= prev) & (values < nxt) & (values < margin_m) & ~flat[:, None]
     rows, idx = np.nonzero(is_min)
     y0, y1, y2 = prev[rows, idx], values[rows, idx], nxt[rows, idx]
@@ -299,19 +332,21 @@ def _candidates(values: np.ndarray, margin_m: float, segments: np.ndarray | None
             mine = np.flatnonzero(rows == r)
             keep[mine[np.argsort(y1[mine])[:MAX_POINTS_PER_CIRCLE]]] = True
         rows, angles = rows[keep], angles[keep]
-    if np.any(flat):
+    if flat.any():
         extra_r, extra_a = [rows], [angles]
         for r in np.flatnonzero(flat):
             # spread over each profile segment the flat samples lie on (a pin end face lying
             # on both the block's face and, across the mouth, the bore's edge gets support
             # points on each)
-            groups = ([np.flatnonzero(near[r])] if segments is None else
-                      [np.flatnonzero(near[r] & (segments[r] == g))
-                       for g in np.unique(segments[r][near[r]])])
+            on = np.flatnonzero(near[r])
+            if segments is None:
+                groups = [on]
+            else:
+                seg = segments[r][on]
+                groups = [on] if (seg == seg[0]).all() else [on[seg == g]
+                                                               for g in np.unique(seg)]
             for at in groups:
-                take = np.unique(at[np.linspace(0, at.size - 1,
-                                                min(MAX_POINTS_PER_CIRCLE, at.size))
-                                    .round().astype(int)])
+                take = at[_spread(at.size)]
                 extra_r.append(np.full(take.size, r))
                 extra_a.append(take * step)
         rows, angles = np.concatenate(extra_r), np.concatenate(extra_a)
@@ -348,6 +383,16 @@ class FitContactModel:
                                                               else [])
         self._bore_vertex = [1] + ([2] if ch > 0 else [])
         self._far = bore.rim_radius_m + max(rad for _, rad in self._pin_circles)
+        # supersets of the two solids (fit_samples: which samples can be candidates)
+        self._pin_bound = MaterialBound(0.0, _FAR, r) if 0.0 <= cp < r else None
+        well_formed = R > 0 and 0.0 <= ch <= bore.depth_m and bore.rim_radius_m >= R + ch
+        self._bore_bound = (MaterialBound(-bore.depth_m - _FAR, 0.0, bore.rim_radius_m, R,
+                                          -np.inf if bore.through else -bore.depth_m)
+                            if well_formed else None)
+        self._samples: tuple[bytes, dict[bool, SampledCircles]] | None = None
+        self._circle_arrays = {
+            on_pin: (np.array([h for h, _ in circles]), np.array([rad for _, rad in circles]))
+            for on_pin, circles in ((True, self._pin_circles), (False, self._bore_circles))}
 
     def frames(self, T_world_pin_body: np.ndarray, T_world_bore_body: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
@@ -388,19 +433,26 @@ class FitContactModel:
 
         pts, nrm, gap = [], [], []
         single = True
+        key = T_world_pin_body.tobytes() + T_world_bore_body.tobytes()
+        if self._samples is None or self._samples[0] != key:
+            self._samples = (key, {})
         for circles, R, origin, sdf, on_pin in (
                 (self._pin_circles, Rp, pp, pin_edge_vs_block, True),
                 (self._bore_circles, Rb, pb, block_edge_vs_pin, False)):
-            heights = np.array([h for h, _ in circles])
-            radii = np.array([rad for _, rad in circles])
+            heights, radii = self._circle_arrays[on_pin]
             centres = origin + heights[:, None] * R[:, 2]  # (C, 3)
             ring = self._cos[:, None] * R[:, 0] + self._sin[:, None] * R[:, 1]  # (n, 3)
-            world = (centres[:, None, :] + radii[:, None, None] * ring[None]).reshape(-1, 3)
-            d_all, _ = sdf(world)
             prof = self._bore_profile if on_pin else self._pin_profile
-            single = single and not bool(np.any(prof.last_second_m < margin_m))
-            rows, ang = _candidates(d_all.reshape(len(circles), -1), margin_m,
-                                    prof.last_segment.reshape(len(circles), -1))
+            sampled = self._samples[1].get(on_pin)
+            if sampled is None:  # the samples in the other solid's frame (fit_samples)
+                world = (centres[:, None, :] + radii[:, None, None] * ring[None]).reshape(-1, 3)
+                other_R, other_origin = (Rb, pb) if on_pin else (Rp, pp)
+                sampled = SampledCircles((world - other_origin) @ other_R, len(circles), prof,
+                                         self._bore_bound if on_pin else self._pin_bound)
+                self._samples[1][on_pin] = sampled
+            d_all, segments, second_m = sampled.at(margin_m, FLAT_TOLERANCE_M)
+            single = single and not second_m < margin_m
+            rows, ang = _candidates(d_all, margin_m, segments)
             if rows.size == 0:
                 continue
             p = centres[rows] + radii[rows, None] * (np.cos(ang)[:, None] * R[:, 0]
@@ -471,9 +523,11 @@ class FitContactModel:
         plane (points, normals (the bore's outward axis), gaps) or None."""
         axis = Rb[:, 2]
         floor_z = -self.bore.depth_m
-        heights = np.array([h for h, _ in self._pin_circles])
-        radii = np.array([rad for _, rad in self._pin_circles])
+        heights, radii = self._circle_arrays[True]
         centres = pp + heights[:, None] * Rp[:, 2]
+        tilt = math.hypot(float(Rp[:, 0] @ axis), float(Rp[:, 1] @ axis))
+        if float(np.min((centres - pb) @ axis - radii * tilt)) >= floor_z + margin_m + SKIP_BAND_M:
+            return None  # every edge point lies farther than the margin above the floor
         ring = self._cos[:, None] * Rp[:, 0] + self._sin[:, None] * Rp[:, 1]
         world = centres[:, None, :] + radii[:, None, None] * ring[None]  # (C, n, 3)
         rel = (world - pb) @ Rb
