@@ -389,7 +389,9 @@ class FitContactModel:
         self._bore_bound = (MaterialBound(-bore.depth_m - _FAR, 0.0, bore.rim_radius_m, R,
                                           -np.inf if bore.through else -bore.depth_m)
                             if well_formed else None)
-        self._samples: tuple[bytes, dict[bool, SampledCircles]] | None = None
+        # per pose pair: each family's samples and refined candidates (reused by the next
+        # call at the same poses, with another margin)
+        self._samples: tuple[bytes, dict] | None = None
         self._circle_arrays = {
             on_pin: (np.array([h for h, _ in circles]), np.array([rad for _, rad in circles]))
             for on_pin, circles in ((True, self._pin_circles), (False, self._bore_circles))}
@@ -455,9 +457,14 @@ class FitContactModel:
             rows, ang = _candidates(d_all, margin_m, segments)
             if rows.size == 0:
                 continue
-            p = centres[rows] + radii[rows, None] * (np.cos(ang)[:, None] * R[:, 0]
-                                                     + np.sin(ang)[:, None] * R[:, 1])
-            d2, n2 = sdf(p)
+            refined = self._samples[1].get((on_pin, rows.tobytes(), ang.tobytes()))
+            if refined is None:  # the same candidates at the same poses: the same points
+                p = centres[rows] + radii[rows, None] * (np.cos(ang)[:, None] * R[:, 0]
+                                                         + np.sin(ang)[:, None] * R[:, 1])
+                d2, n2 = sdf(p)
+                refined = (p, d2, n2, prof.near_convex_vertex(EDGE_EDGE_M))
+                self._samples[1][on_pin, rows.tobytes(), ang.tobytes()] = refined
+            p, d2, n2, vertex_all = refined
             keep = d2 < margin_m
             if on_pin:
                 # the block is modelled as its face (out to rim_radius_m) over a solid of
@@ -474,7 +481,7 @@ class FitContactModel:
             if not np.any(keep):
                 continue
             p, d2, n2 = p[keep], d2[keep], n2[keep]
-            vertex = prof.near_convex_vertex(EDGE_EDGE_M)[keep]
+            vertex = vertex_all[keep]
             if np.any(vertex >= 0):
                 own = np.asarray(self._pin_vertex if on_pin else self._bore_vertex)[rows[keep]]
                 d2, n2 = self._edge_edge(p, d2, n2, vertex, own, on_pin,
