@@ -189,7 +189,10 @@ class HeldFitContact:
         self.steps_solved = 0
         self.reused = 0
         self._axis: np.ndarray | None = None
-        self._base: tuple[np.ndarray, FitContact, np.ndarray, float] | None = None
+        # the last detection: pose, contacts, their pairs, margin and, while not yet made
+        # (_stands), None, None and the partners' poses
+        self._base: tuple[np.ndarray, FitContact | None, np.ndarray | None, float,
+                          dict[int, np.ndarray] | None] | None = None
         self._grip: tuple[int, tuple[int, ...], float] | None = None
 
     def set_grip(self, gripper_body: int, pad_links: Sequence[int], pad_friction: float) -> None:
@@ -232,12 +235,14 @@ class HeldFitContact:
             if self._dynamic[body]:
                 self.world.apply_force(body, -1, force.tolist(), point.tolist())
 
-    def _detect(self, T_held: np.ndarray, margin: float) -> tuple[FitContact, np.ndarray]:
-        """Contacts of every pair (normals pushing the held body) and each point's pair."""
+    def _detect(self, T_held: np.ndarray, margin: float,
+                partners: dict[int, np.ndarray] | None = None) -> tuple[FitContact, np.ndarray]:
+        """Contacts of every pair (normals pushing the held body) and each point's pair
+        (``partners``: their poses, default the present ones)."""
         pts, nrm, gap, owner = [], [], [], []
         single = True
         for i, pair in enumerate(self.pairs):
-            T_other = self._T_partner[pair.partner]
+            T_other = (self._T_partner if partners is None else partners)[pair.partner]
             if pair.held_is_pin:
                 fc = pair.model.contacts(T_held, T_other, margin)
                 n = fc.normal
@@ -256,31 +261,87 @@ class HeldFitContact:
         return (FitContact(np.vstack(pts), np.vstack(nrm), np.concatenate(gap), single),
                 np.concatenate(owner))
 
+    def _motion(self, T_held: np.ndarray, T0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The held body's motion from ``T0``: its centre of mass's (3,) and the small
+        rotation's vector (3,)."""
+        dc = T_held[:3, :3] @ self._com_link + T_held[:3, 3] - (
+            T0[:3, :3] @ self._com_link + T0[:3, 3])
+        dR = T_held[:3, :3] @ T0[:3, :3].T
+        dth = 0.5 * np.array([dR[2, 1] - dR[1, 2], dR[0, 2] - dR[2, 0], dR[1, 0] - dR[0, 1]])
+        return dc, dth
+
+    def _reuse_ok(self, single: bool, dc: np.ndarray, dth: np.ndarray, margin: float) -> bool:
+        """Whether a detection (``single``: its ``single_feature``) made before the motion
+        (dc, dth) stands for this one (:data:`REUSE_MOTION_M`, :data:`REUSE_SLIDE_M`)."""
+        slide = 0.0
+        if single and self._axis is not None:
+            slide = float(dc @ self._axis)
+        lateral = float(np.linalg.norm(dc - slide * (self._axis if self._axis is not None
+                                                      else 0.0)))
+        return (lateral + self._reach * float(np.linalg.norm(dth)) <= REUSE_MOTION_M
+                and abs(slide) <= REUSE_SLIDE_M and abs(slide) <= 0.25 * margin)
+
+    def _may_reuse(self, T_held: np.ndarray, margin: float) -> bool:
+        """Whether :meth:`_detect_near` might reuse the last detection here."""
+        base = self._base
+        if base is None or base[3] < margin:
+            return False
+        dc, dth = self._motion(T_held, base[0])
+        if base[1] is not None:
+            return self._reuse_ok(base[1].single_feature, dc, dth, margin)
+        return self._reuse_ok(True, dc, dth, margin) or self._reuse_ok(False, dc, dth, margin)
+
     def _detect_near(self, T_held: np.ndarray, margin: float) -> tuple[FitContact, np.ndarray]:
         """:meth:`_detect`, or the last detection with its gaps moved to first order while the
-        held body has moved less than :data:`REUSE_MOTION_M` since (partners unmoved)."""
+        held body has moved less than :data:`REUSE_MOTION_M` since (partners unmoved). A
+        detection :meth:`_stands` left undone is made here when its reuse is possible."""
         base = self._base
         if base is not None and base[3] >= margin:
-            T0, found, owner, _ = base
-            dc = T_held[:3, :3] @ self._com_link + T_held[:3, 3] - (
-                T0[:3, :3] @ self._com_link + T0[:3, 3])
-            dR = T_held[:3, :3] @ T0[:3, :3].T
-            dth = 0.5 * np.array([dR[2, 1] - dR[1, 2], dR[0, 2] - dR[2, 0], dR[1, 0] - dR[0, 1]])
-            slide = 0.0
-            if found.single_feature and self._axis is not None:
-                slide = float(dc @ self._axis)
-            lateral = float(np.linalg.norm(dc - slide * (self._axis if self._axis is not None
-                                                          else 0.0)))
-            if (lateral + self._reach * float(np.linalg.norm(dth)) <= REUSE_MOTION_M
-                    and abs(slide) <= REUSE_SLIDE_M and abs(slide) <= 0.25 * margin):
+            T0 = base[0]
+            dc, dth = self._motion(T_held, T0)
+            if base[1] is None and (self._reuse_ok(True, dc, dth, margin)
+                                    or self._reuse_ok(False, dc, dth, margin)):
+                found0, owner0 = self._detect(T0, base[3], base[4])
+                self._base = base = (T0, found0, owner0, base[3], None)
+            if base[1] is not None and self._reuse_ok(base[1].single_feature, dc, dth, margin):
+                found, owner = base[1], base[2]
                 c0 = T0[:3, :3] @ self._com_link + T0[:3, 3]
                 J = self._rows(found.point_m, found.normal, c0)
                 gap = found.gap_m + J @ np.concatenate([dc, dth])
                 self.reused += 1
                 return FitContact(found.point_m, found.normal, gap), owner
         found, owner = self._detect(T_held, margin)
-        self._base = (T_held.copy(), found, owner, margin)
+        self._base = (T_held.copy(), found, owner, margin, None)
         return found, owner
+
+    def _clear(self, T_held: np.ndarray, margin: float, gap: float) -> bool:
+        """True only if every contact :meth:`_detect` finds here has a gap above ``gap``
+        (:meth:`FitContactModel.clear_of`, without detecting)."""
+        for pair in self.pairs:
+            T_other = self._T_partner[pair.partner]
+            if not (pair.model.clear_of(T_held, T_other, margin, gap) if pair.held_is_pin
+                    else pair.model.clear_of(T_other, T_held, margin, gap)):
+                return False
+        return True
+
+    def _stands(self, T_prev: np.ndarray, margin: float) -> bool:
+        """Keep Bullet's step when the detections of :meth:`after_step` would keep it, proved
+        without making them: no reuse is possible, every contact at the pre-step pose has a
+        gap above :data:`FRICTION_GAP_M` (none: the pin is free; all: approaching) and none
+        penetrates at the pose Bullet reached. The pre-step detection, which a later step may
+        reuse, is left for :meth:`_detect_near` to make if one does (its pose, margin and
+        partners kept), so every result is the same, bit for bit."""
+        if self._may_reuse(T_prev, margin) or not self._clear(T_prev, margin, FRICTION_GAP_M):
+            return False
+        T_step = self.world.pose(self.held_body)
+        if not self._clear(T_step, MIN_MARGIN_M, 0.0):
+            return False
+        self._base = (T_prev.copy(), None, None, margin, dict(self._T_partner))
+        self._reaction = []
+        self._last = _empty_contacts()
+        self._T_prev = T_step
+        self._found = None
+        return True
 
     def after_step(self) -> None:
         """Solve the held body's fit contact for the step Bullet just took (module docstring)."""
@@ -307,6 +368,8 @@ class HeldFitContact:
             self._axis = axes[0] if all(abs(float(a @ axes[0])) > 1.0 - 1e-9
                                         for a in axes) else None
         if self._found is None or self._found_margin < margin or moved:
+            if self._stands(T_prev, margin):
+                return
             self._found = self._detect_near(T_prev, margin)
             self._found_margin = margin
         found, owner = self._found
@@ -324,8 +387,9 @@ class HeldFitContact:
             # past; the pin stopped in one step from 64 mm/s and the pads, a step behind,
             # sank 0.34 mm into it)
             T_step = world.pose(self.held_body)
-            at = self._detect(T_step, MIN_MARGIN_M)[0]
-            if at.count == 0 or float(np.min(at.gap_m)) >= 0.0:
+            at = (None if self._clear(T_step, MIN_MARGIN_M, 0.0)  # proved: none penetrates
+                  else self._detect(T_step, MIN_MARGIN_M)[0])
+            if at is None or at.count == 0 or float(np.min(at.gap_m)) >= 0.0:
                 self._T_prev = T_step
                 self._found = None
                 self._last = _empty_contacts()

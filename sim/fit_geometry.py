@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fit_samples import SKIP_BAND_M, MaterialBound, SampledCircles
+from .fit_samples import SKIP_BAND_M, MaterialBound, SampledCircles, circle_extents
 
 CIRCLE_SAMPLES = 96
 """Angles sampled per edge circle."""
@@ -415,6 +415,38 @@ class FitContactModel:
         rel = Tp[:3, 3] - Tb[:3, 3]
         lateral = float(np.linalg.norm(rel - (zb @ rel) * zb))
         return lateral > self._far + self.pin.length_m * lean + margin_m
+
+    def clear_of(self, T_world_pin_body: np.ndarray, T_world_bore_body: np.ndarray,
+                 margin_m: float, gap_m: float) -> bool:
+        """True only if every contact :meth:`contacts` returns at these poses with this margin
+        has a gap above ``gap_m`` (m), proved without detecting: the pin is apart, or every
+        point of every edge circle lies farther than ``gap_m`` from the other solid (each
+        solid's superset, :class:`~asmplan.sim.fit_samples.MaterialBound`, over the circle's
+        meridian extent, :func:`~asmplan.sim.fit_samples.circle_extents`) and from a blind
+        bore's floor, and no two edges cross (:meth:`_edge_edge` then changes no gap; a
+        face-entry gap is negative only where the distance is). False says nothing."""
+        Tp, Tb = self.frames(T_world_pin_body, T_world_bore_body)
+        if self._apart(Tp, Tb, margin_m):
+            return True
+        if self._pin_bound is None or self._bore_bound is None:
+            return False
+        need = gap_m + SKIP_BAND_M
+        Rp, pp, Rb, pb = Tp[:3, :3], Tp[:3, 3], Tb[:3, :3], Tb[:3, 3]
+        pin = circle_extents(Rp, pp, *self._circle_arrays[True], Rb, pb)
+        if float(np.min(self._bore_bound.lower_box(*pin[:4]))) < need or (
+                not self.bore.through and float(np.min(pin[2])) < need - self.bore.depth_m):
+            return False
+        bore = circle_extents(Rb, pb, *self._circle_arrays[False], Rp, pp)
+        if float(np.min(self._pin_bound.lower_box(*bore[:4]))) < need:
+            return False
+        for on_pin, ecc in ((True, pin[4]), (False, bore[4])):
+            own = np.asarray(self._pin_vertex if on_pin else self._bore_vertex) >= 0
+            e, r = ecc[own, None], self._circle_arrays[on_pin][1][own, None]
+            other = self._bore_profile if on_pin else self._pin_profile
+            rv = other.polygon[other.vertex_convex, 0][None, :]
+            if np.any((e > np.abs(rv - r) - SKIP_BAND_M) & (e < rv + r + SKIP_BAND_M)):
+                return False
+        return True
 
     def contacts(self, T_world_pin_body: np.ndarray, T_world_bore_body: np.ndarray,
                  margin_m: float) -> FitContact:

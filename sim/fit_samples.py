@@ -33,6 +33,7 @@ that step's margin; the second call evaluates only samples the first left out.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,6 +63,41 @@ class MaterialBound:
         hole = np.minimum(self.rho_hole - rho, z - self.z_floor)
         return np.maximum(np.maximum(z - self.z_max, self.z_min - z),
                           np.maximum(rho - self.rho_max, hole))
+
+
+    def lower_box(self, rho_lo: np.ndarray, rho_hi: np.ndarray, z_lo: np.ndarray,
+                  z_hi: np.ndarray) -> np.ndarray:
+        """Lower bound of :meth:`lower` over meridian boxes (each (k,): rho in
+        [rho_lo, rho_hi], z in [z_lo, z_hi]), m: each condition's distance at its nearest
+        corner of the box."""
+        hole = np.minimum(self.rho_hole - rho_hi, z_lo - self.z_floor)
+        return np.maximum(np.maximum(z_lo - self.z_max, self.z_min - z_hi),
+                          np.maximum(rho_lo - self.rho_max, hole))
+
+
+def circle_extents(R_world_own: np.ndarray, origin_own: np.ndarray, heights_m: np.ndarray,
+                   radii_m: np.ndarray, R_world_other: np.ndarray, origin_other: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where whole edge circles lie in the other solid's meridian half-plane.
+
+    The circles (C,) are coaxial with the own frame's z (``heights_m`` along it, radii
+    ``radii_m``); a point of one is c + r w, w a unit vector normal to that axis, so in the
+    other frame (axis z) its height is within r |w_z| <= r lean of the centre's, and its
+    distance from the other axis within [r sqrt(1 - lean^2) - e, e + r] (e: the centre's
+    distance from that axis, lean: the sine of the angle between the axes).
+
+    Returns
+    -------
+    rho_lo, rho_hi, z_lo, z_hi, ecc : (C,) float
+        Bounds of the circles' points' (rho, z) and each centre's distance e, m.
+    """
+    zo = R_world_other[:, 2]
+    rel = origin_own + heights_m[:, None] * R_world_own[:, 2] - origin_other
+    z_c = rel @ zo
+    ecc = np.linalg.norm(rel - z_c[:, None] * zo, axis=1)
+    lean = min(1.0, math.hypot(float(R_world_own[:, 0] @ zo), float(R_world_own[:, 1] @ zo)))
+    return (radii_m * math.sqrt(1.0 - lean * lean) - ecc, ecc + radii_m,
+            z_c - radii_m * lean, z_c + radii_m * lean, ecc)
 
 
 class SampledCircles:
