@@ -15,6 +15,19 @@ from asmplan.planner.press import PressRequiredError
 from asmplan.planner.product import plan_product
 from tests.conftest import example_path
 
+
+def _balanced_step(example: str, part: str):
+    """Plan the bundled example and simulate the step that places ``part`` at BALANCED."""
+    from asmplan.sim.fidelity import BALANCED
+    from asmplan.sim.simulate import simulate_step
+
+    product = load_product(example_path(example))
+    geometry = ProductGeometry(product)
+    plan = plan_product(product, geometry, PlannerSettings()).plan
+    k = next(i for i, s in enumerate(plan.steps) if s.part == part)
+    return simulate_step(plan, k, product, geometry, BALANCED)
+
+
 PRESS_EXAMPLES = ("bearing_housing", "hinge", "pneumatic_cylinder")
 
 
@@ -98,15 +111,8 @@ def test_a_part_that_would_tip_over_on_the_tray_waits_in_a_cradle():
 @pytest.mark.slow
 def test_the_pneumatic_piston_goes_in_at_balanced():
     """The step that jammed (5.9 deg tilt, 289 N) when the piston tipped over on the tray: one
-    BALANCED step (the whole example succeeds at BALANCED, 230 s of simulation)."""
-    from asmplan.sim.fidelity import BALANCED
-    from asmplan.sim.simulate import simulate_step
-
-    product = load_product(example_path("pneumatic_cylinder"))
-    geometry = ProductGeometry(product)
-    plan = plan_product(product, geometry, PlannerSettings()).plan
-    k = next(i for i, s in enumerate(plan.steps) if s.part == "piston_rod")
-    result = simulate_step(plan, k, product, geometry, BALANCED)
+    BALANCED step (the example's front cap still fails at BALANCED: the strict xfail below)."""
+    result = _balanced_step("pneumatic_cylinder", "piston_rod")
     assert result.success, result.reasons
     assert any(b["role"] == "nest" for b in result.scene["bodies"])
     assert result.outcome.final_angle_error_rad < math.radians(0.5)  # not the 5.2 deg of tipping
@@ -132,14 +138,7 @@ def test_the_pneumatic_front_cap_goes_over_the_rod_and_in_at_balanced():
     """The front cap slides 50 mm over the rod (H9/f8) and is pressed 8 mm into the barrel
     (H9/k8): what a real cell does (the rod's 0.79 mm sag is inside the two 0.5 mm chamfers and
     takes 0.44 N to lift)."""
-    from asmplan.sim.fidelity import BALANCED
-    from asmplan.sim.simulate import simulate_step
-
-    product = load_product(example_path("pneumatic_cylinder"))
-    geometry = ProductGeometry(product)
-    plan = plan_product(product, geometry, PlannerSettings()).plan
-    k = next(i for i, s in enumerate(plan.steps) if s.part == "front_cap")
-    result = simulate_step(plan, k, product, geometry, BALANCED)
+    result = _balanced_step("pneumatic_cylinder", "front_cap")
     assert result.success, result.reasons
     assert result.press is not None and result.press["home"], result.press
 
@@ -151,13 +150,6 @@ def test_the_step_that_failed_goes_in_at_balanced(name, part):
     of rotational slip, then a 2 mm pad penetration; since the gripper's impact-free closing the
     whole unit succeeds at BALANCED) and the hinge pin (it tipped over on the tray on its head and
     stopped on the rim tilted 5.1 deg; it now waits on a tray cradle and is pressed through)."""
-    from asmplan.sim.fidelity import BALANCED
-    from asmplan.sim.simulate import simulate_step
-
-    product = load_product(example_path(name))
-    geometry = ProductGeometry(product)
-    plan = plan_product(product, geometry, PlannerSettings()).plan
-    k = next(i for i, s in enumerate(plan.steps) if s.part == part)
-    result = simulate_step(plan, k, product, geometry, BALANCED)
+    result = _balanced_step(name, part)
     assert result.success, result.reasons
     assert result.press is not None and result.press["home"], result.press
