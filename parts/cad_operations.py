@@ -47,7 +47,9 @@ def _ends_in_one_part(outer: Sequence[ProposedMate]) -> bool:
     ref = np.asarray(outer[0].axis, dtype=float)
     spans = []
     for m in outer:
-        t = float(np.dot(m.engage_start_m, ref))
+        start = m.engage_start_m
+        assert start is not None  # every None returned above
+        t = float(np.dot(start, ref))
         lo, hi = (t - m.engaged_m, t) if float(np.dot(m.axis, ref)) > 0 else (t, t + m.engaged_m)
         spans.append((lo, hi, m.female_part))
     return min(spans)[2] == max(spans, key=lambda s: s[1])[2]

@@ -305,6 +305,7 @@ class HeldFitContact:
                 self._base = base = (T0, found0, owner0, base[3], None)
             if base[1] is not None and self._reuse_ok(base[1].single_feature, dc, dth, margin):
                 found, owner = base[1], base[2]
+                assert owner is not None  # detected together with found
                 c0 = T0[:3, :3] @ self._com_link + T0[:3, 3]
                 J = self._rows(found.point_m, found.normal, c0)
                 gap = found.gap_m + J @ np.concatenate([dc, dth])
@@ -528,7 +529,7 @@ class HeldFitContact:
             cap = mu * lam * touching
             if rnd == FRICTION_ROUNDS - 1 or not (np.any(cap > 0) or pads is not None):
                 break
-            for i in np.flatnonzero((cap > 0) | np.any(p_t != 0.0, axis=1)):
+            for i in np.flatnonzero((cap > 0) | np.any(p_t != 0.0, axis=1)).tolist():
                 old = p_t[i]
                 new = old - Winv[i] @ (Jt[i] @ u_new)
                 norm = math.hypot(new[0], new[1])

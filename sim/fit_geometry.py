@@ -525,9 +525,9 @@ class FitContactModel:
         sel, q, cross = sel[use], q[use], cross[use] / size[use, None]
 
         def faces(profile: Profile, v: np.ndarray, origin: np.ndarray, R: np.ndarray,
-                  sign: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  sign: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
             """World push directions (sign x outward) of the two faces at vertex ``v`` and
-            the bisector, in the meridian plane of each point."""
+            the bisector, in the meridian plane of each point, and the vertex itself (world)."""
             rel = (q - origin) @ R
             rho = np.hypot(rel[:, 0], rel[:, 1])
             ok = rho > 1e-12
