@@ -47,3 +47,19 @@ def test_mujoco_capture_boundary_and_held_drift():
                                           part.size_m[1], False)
     span = (ts >= 0.1) & (ts <= 3.5)
     assert float(np.ptp(rel[span, 1, 3])) < 0.1e-3
+
+
+@pytest.mark.parametrize("t_deg", [2.0, 5.0])
+def test_mujoco_jam_depth_converges_to_whitney_at_a_tenth_of_the_step(t_deg):
+    """The peer's jam scene is right when converged: at 0.1 ms the 10 mm peg (c = 0.1 mm)
+    stops within 0.1 mm of Whitney's l* (measured +0.03 / +0.02 mm); at BALANCED's 1 ms its
+    soft contacts let it sink 0.5-0.7 mm deeper (what the bench's side-by-side table shows
+    beside this row)."""
+    import math
+
+    from bench.scenarios import whitney_jam_depth_m
+
+    t = math.radians(t_deg)
+    ref = whitney_jam_depth_m(0.1e-3, t)
+    fine, _ = peers.mujoco_jam_depth_m(1e-4, 0.1e-3, t)
+    assert abs(fine - ref) < 0.1e-3
