@@ -147,7 +147,11 @@ def propose_mates(parts: list[ImportedPart], settings: ImportSettings, mesh: boo
             axis = af.copy()
             mouth = pf_pt + af * (f_hi + (ff.counterbore[1] if ff.counterbore else 0.0))
             if ff.through and kind != "non_round":
-                pick_up = (m_hi - f_hi) >= (f_lo - m_lo)
+                # the side the male PART stands out of the female more (not the feature: the
+                # journal of a stepped shaft stands out below the spacer between its bearings,
+                # the shaft above it)
+                p_t = (_apply_all(pm.T_assembly_part, pm.vertices_m) - pf_pt) @ af
+                pick_up = (float(p_t.max()) - f_hi) >= (f_lo - float(p_t.min()))
                 if kind != "thread":
                     up_blocked = _blocked(pm, pf, af, engaged + 2e-3)
                     down_blocked = _blocked(pm, pf, -af, engaged + 2e-3)

@@ -7,7 +7,9 @@
   exact primitive) whose whole outer cylinder ends up inside bores or holes (engaged over the
   part's full length, summed over coaxial through holes) with both ends in one part leaves
   no surface for two fingers when seated (a bearing pressed flush in its bore, a dowel flush
-  with both faces of a leg): ``operation: press_tool`` along the mates' axis. A dowel whose
+  with both faces of a leg): ``operation: press_tool`` along the mates' axis (the note says
+  an inside gripper could take a ring or sleeve by its bore; a solid dowel only a press tool
+  pushing its end: its end face is no grip for fingers). A dowel whose
   ends lie in two parts (the second goes over it later) is not flagged.
 
 Screwed fasteners (bolts, nuts) are not parts of the written product at all (listed as
@@ -68,7 +70,7 @@ def operation_hint(part: ImportedPart, mates: Sequence[ProposedMate],
                 f"{m.female.name}, engaged {m.engaged_m * 1e3:.1f} mm: not round, not simulated")
     if revolved is None:
         return None
-    _T, d_m, length_m, _bore, _why = revolved
+    _T, d_m, length_m, bore, _why = revolved
     outer = [m for m in mates
              if m.male_part == part.name and m.simulated and m.female.kind in ("hole", "bore")
              and abs(m.male.diameter_m - d_m) < 1e-6]
@@ -80,7 +82,9 @@ def operation_hint(part: ImportedPart, mates: Sequence[ProposedMate],
     return OperationHint(
         "press_tool", -np.asarray(outer[0].axis, dtype=float),
         f"seated flush in {', '.join(f'{m.female_part}.{m.female.name}' for m in outer)}: a "
-        "press tool or an inside gripper, not two fingers",
+        + ("press tool or an inside gripper in its bore" if bore is not None else
+           "press tool pushing its end (solid: no bore for an inside gripper)")
+        + ", not two fingers",
         f"its outer cylinder ({d_m * 1e3:.3g} mm) is engaged {engaged_m * 1e3:.3g} mm over "
         f"its whole length ({length_m * 1e3:.3g} mm) in {where}: no surface left outside "
         "for the fingers")

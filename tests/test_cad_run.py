@@ -80,10 +80,11 @@ PRESET = {
     },
     # bearings and spacer: placed by a press tool (handling.operation, written by the
     # importer), at their assembled poses when the shaft and cover come. The cover goes over
-    # the shaft at FAST (its 2 mm clearance). The shaft (H7/g6, 6 um) jams at FAST (tilt
-    # 1.5 deg, one-sided contact on bearing_2); at BALANCED it is seated (axial error
-    # 0.001 mm at the end of lowering) and, released, slides 2.0 mm down its bearings onto the
-    # table: the fixture's shaft has no shoulder or retaining ring (xfail below)
+    # the shaft's drive end at FAST (its 2 mm clearance). The shaft (a 12 mm journal in H7/g6
+    # bearings, 6 um) jams at FAST (one-sided contact on bearing_2, 0.4 mm resolution); at
+    # BALANCED it is seated and stays: released, its shoulder (the 15 mm drive end) rests on
+    # bearing_2's inner ring (axial error 0.001 mm after release). Before the fixture had
+    # its shoulder, the plain 12 mm shaft slid 2.0 mm down its bearings onto the table.
     "bearing_housing": {"shaft": "balanced", "cover": "fast"},
     # rail_x, rail_y (tenons: manual) and the dowel (flush with both faces of the leg: a
     # press tool) are all placed by other operations: nothing for the gripper
@@ -108,11 +109,7 @@ def _feasible(name: str) -> set[str]:
 # dowel_2 onto a grasp that slipped 3.85 deg; with the hold criterion (planner/grasp_hold.py)
 # the washer is pinched across its rim (0.9 mm^2 per pad, 60 mN needed) and dowel_2 held across
 # its flank (21.7 mm^2, lever 3.8 mm): both simulate.
-_SIMULATED = [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=(
-    "the shaft is seated at BALANCED (axial error 0.001 mm when lowered) and, released, slides "
-    "2.0 mm down its H7/g6 bearings onto the table: bearing_housing.step's shaft has no "
-    "shoulder or retaining ring (a fixture model fault, make_fixtures.py)")))
-               if n == "bearing_housing" else n for n in sorted(PRESET)]
+_SIMULATED = sorted(PRESET)
 
 
 @pytest.mark.slow
