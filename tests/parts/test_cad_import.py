@@ -293,3 +293,13 @@ def test_parts_the_truth_calls_no_gripper_step_are_declared_operations(imported)
             for s in truth["order"] if not s["feasible"] and s["part"] != truth["base"]
             and "fastening" not in s["why"]}
     assert got == want, (name, src)
+    # a press tool pushes the part along its insertion (the truth's male axis, root to tip),
+    # and only a part with a bore is offered to an inside gripper
+    for p in doc["parts"]:
+        if got.get(p["name"]) != "press_tool":
+            continue
+        males = [f for f in truth["features"] if f["part"] == p["name"] and "length" in f]
+        outer = max(males, key=lambda f: f["diameter"])
+        assert np.allclose(p["handling"]["insertion_direction"], outer["axis"], atol=1e-9), (name, src, p["name"])
+        has_bore = any(f["part"] == p["name"] and f["kind"] == "bore" for f in truth["features"])
+        assert ("inside gripper in its bore" in p["handling"]["note"]) == has_bore, p["handling"]["note"]
