@@ -154,31 +154,66 @@ def _step_scene(path: Path, step_deflection_m: float):
         raise MeshFileError(path, f"cannot read the file as STEP: {type(exc).__name__}: {exc}") from None
 
 
+def _solid_bodies(path: Path, step_deflection_m: float):
+    """The STEP file's solids through OpenCASCADE's XCAF reader (:mod:`asmplan.parts.step_brep`),
+    or None without the ``cad`` extra or when it cannot read the file. cascadio's scene has one
+    node per product: the several solids of ONE product (a multi-body part written as a
+    compound) come out of it as one mesh, which only the solids show."""
+    try:
+        from .step_brep import StepReadError, read_step_assembly
+
+        return read_step_assembly(path, deflection_m=step_deflection_m)
+    except (ImportError, StepReadError):
+        return None
+
+
 def step_body_names(path: Path | str, step_deflection_m: float = 1e-4) -> list[str]:
-    """Names of the bodies (solid instances) of a STEP file, as ``body:`` takes them."""
+    """Names of the bodies (solid instances) of a STEP file, as ``body:`` takes them: the
+    scene's nodes, or, where one node holds several solids, the solids (``name_bodyK``)."""
     scene = _step_scene(Path(path), step_deflection_m)
-    return [str(n) for n in scene.graph.nodes_geometry]
+    names = [str(n) for n in scene.graph.nodes_geometry]
+    if len(names) <= 1:
+        solids = _solid_bodies(Path(path), step_deflection_m)
+        if solids is not None and len(solids.instances) > 1:
+            return [inst.name for inst in solids.instances]
+    return names
 
 
-def _find_body(scene, path: Path, body: str):
-    """The graph node of the body named ``body`` (its instance or its geometry's name)."""
+def _find_body(scene, path: Path, body: str, step_deflection_m: float):
+    """The graph node of the body named ``body`` (its instance or its geometry's name), or
+    the solid (:func:`_solid_bodies`) of that name as a mesh in the file's frame (metres)."""
+    import trimesh
+
     for n in scene.graph.nodes_geometry:
         if str(n) == body or str(scene.graph[n][1]) == body:
             return n
-    names = [str(n) for n in scene.graph.nodes_geometry]
+    solids = _solid_bodies(path, step_deflection_m)
+    if solids is not None:
+        for inst in solids.instances:
+            if inst.name == body:
+                d = solids.definitions[inst.definition]
+                mesh = trimesh.Trimesh(d.vertices_m, d.faces, process=False)
+                mesh.apply_transform(inst.T_assembly_part)
+                return mesh
+    names = step_body_names(path, step_deflection_m)
     raise MeshFileError(path, f'expected a body named "{body}", found bodies: {", ".join(names)}')
 
 
 def check_step_body(path: Path | str, body: str, step_deflection_m: float = 1e-4) -> None:
     """Raise :class:`MeshFileError` unless ``body`` names a body of the STEP file at ``path``
     (as ``geometry.body`` is resolved when the part is loaded), listing the bodies it has."""
-    _find_body(_step_scene(Path(path), step_deflection_m), Path(path), body)
+    _find_body(_step_scene(Path(path), step_deflection_m), Path(path), body, step_deflection_m)
 
 
 def _step_body(path: Path, body: str, step_deflection_m: float):
     """One named body of a STEP file, in the file's frame (its placement applied)."""
+    import trimesh
+
     scene = _step_scene(path, step_deflection_m)
-    T, geom = scene.graph[_find_body(scene, path, body)]
+    found = _find_body(scene, path, body, step_deflection_m)
+    if isinstance(found, trimesh.Trimesh):
+        return found
+    T, geom = scene.graph[found]
     mesh = scene.geometry[geom].copy()
     mesh.apply_transform(T)
     return mesh

@@ -93,3 +93,40 @@ def test_validate_reports_an_unknown_body_at_its_key(folder, capsys):
         assert name in err
     (folder / "p.yaml").write_text(PRODUCT.format(file="bracket.step"))
     assert main(["validate", str(folder / "p.yaml")]) == 0
+
+
+def _write_one_product_with_three_solids(path: Path) -> None:
+    """A multi-body PART as CAD systems write one: a single product whose shape is a compound
+    of three solids (boxes of 10, 5 and 3 mm at x = 0, 20 and 40 mm), no assembly tree."""
+    pytest.importorskip("OCP")
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+    from OCP.gp import gp_Pnt
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+    from OCP.TopoDS import TopoDS_Compound
+
+    builder, compound = BRep_Builder(), TopoDS_Compound()
+    builder.MakeCompound(compound)
+    for x, a in ((0.0, 10.0), (20.0, 5.0), (40.0, 3.0)):
+        builder.Add(compound, BRepPrimAPI_MakeBox(gp_Pnt(x, 0.0, 0.0), a, a, a).Shape())
+    writer = STEPControl_Writer()
+    writer.Transfer(compound, STEPControl_AsIs)
+    assert writer.Write(str(path)) == IFSelect_RetDone
+
+
+def test_solids_of_one_product_are_bodies_too(tmp_path):
+    """Issue 19's first case: the solids of ONE product (cascadio's scene gives one node for
+    them) warn by their names when fused, and ``body:`` loads one of them in the file frame."""
+    path = tmp_path / "multi.step"
+    _write_one_product_with_three_solids(path)
+    whole = load_mesh_file(path)
+    warn = [n for n in whole.notes if "holds 3 bodies" in n]
+    assert len(warn) == 1, whole.notes
+    names = warn[0].split("(", 1)[1].split(")", 1)[0].split(", ")
+    assert len(names) == 3 and len(set(names)) == 3
+    one = load_mesh_file(path, body=names[1])
+    assert one.mesh.volume == pytest.approx(125e-9, rel=1e-6)  # the 5 mm box, in m^3
+    assert one.mesh.bounds[0] == pytest.approx([0.020, 0.0, 0.0], abs=1e-9)
+    with pytest.raises(MeshFileError, match=f"found bodies: {', '.join(names)}"):
+        load_mesh_file(path, body="nope")
