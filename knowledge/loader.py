@@ -29,6 +29,7 @@ from .model import (
     Finger,
     Fixture,
     Gripper,
+    Groove,
     Part,
     Press,
     Primitive,
@@ -189,6 +190,30 @@ class _Builder(PartsBuilder, MatesBuilder):
         return Process(**{names.get(k, k): val for k, val in v.items()
                           if val is not None and val is not INVALID})
 
+    def groove(self, finger: dict[str, Any], where: PathKey) -> Groove | None:
+        """The pad's V-groove (SI), or None; a groove that does not fit the pad (angle not
+        below 180 deg, deeper than the pad, wider than it at the face) is an error."""
+        v = finger.get("groove")
+        if not v:
+            return None
+        angle, depth = float(v["angle"]), float(v["depth"])
+        width, thickness = float(finger["size"][0]), float(finger["size"][1])
+        bad = False
+        if not angle < math.pi:
+            self.err((*where, "groove", "angle"), f"expected an included angle below 180 deg, "
+                     f"found {math.degrees(angle):g} deg")
+            bad = True
+        elif depth * math.tan(0.5 * angle) >= 0.5 * width:
+            self.err((*where, "groove", "depth"), f"expected a groove narrower than the pad at "
+                     f"its face ({width * 1e3:g} mm), found {2e3 * depth * math.tan(0.5 * angle):g}"
+                     f" mm (depth x 2 tan(angle / 2))")
+            bad = True
+        if depth >= thickness:
+            self.err((*where, "groove", "depth"), f"expected a depth below the pad's thickness "
+                     f"({thickness * 1e3:g} mm), found {depth * 1e3:g} mm")
+            bad = True
+        return None if bad else Groove(angle, depth)
+
     def build_resources(self, v: dict[str, Any]) -> Resources | None:
         if any(v.get(k) is INVALID for k in ("gripper", "table", "fixtures", "robot", "press", "units",
                                              "regrasp")):
@@ -200,11 +225,16 @@ class _Builder(PartsBuilder, MatesBuilder):
         if g["min_force"] > g["max_force"]:
             self.err(("resources", "gripper", "min_force"), f"expected min_force <= max_force "
                      f"({g['max_force']:g} N), found {g['min_force']:g} N")
+        grooves = [self.groove(g["finger"], ("resources", "gripper", "finger"))]
+        grooves += [self.groove(f, ("resources", "gripper", "fingers", i))
+                    for i, f in enumerate(g["fingers"])]
         gripper = Gripper(stroke_m=g["stroke"], finger_size_m=np.asarray(g["finger"]["size"]),
                           finger_friction=g["finger"]["friction"], max_force_N=g["max_force"],
                           min_force_N=g["min_force"], mass_kg=g["mass"] or 0.5,
-                          fingers=tuple(Finger(f["name"], np.asarray(f["size"]), f["friction"])
-                                        for f in g["fingers"]))
+                          fingers=tuple(Finger(f["name"], np.asarray(f["size"]), f["friction"],
+                                               grooves[i + 1])
+                                        for i, f in enumerate(g["fingers"])),
+                          finger_groove=grooves[0])
         seen: dict[str, int] = {}
         for i, f in enumerate(g["fingers"]):
             if f["name"] in seen:

@@ -16,6 +16,7 @@ pin's part is therefore the pin axis in the world (= minus the hole axis).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
@@ -253,14 +254,48 @@ class Process:
     max_slip_m: float = 1.0e-3
 
 
+@dataclass(frozen=True)
+class Groove:
+    """A V-groove (prism) cut into a pad's contact face along the pad's length (gripper z):
+    included angle ``angle_rad`` (0 < angle < pi) and depth ``depth_m`` below the face.
+
+    A round part whose axis lies along the groove touches each flank along a line; the
+    flank's normal force is ``F / (2 sin(angle / 2))`` for a squeeze ``F``, and the two lines
+    lie ``R cos(angle / 2)`` either side of the closing axis (``R`` the part's radius), so
+    they resist a moment about the closing axis with that lever (prism jaws centre a shaft
+    and hold it against turning in the grip; a flat pad on a round part touches one line).
+    """
+
+    angle_rad: float
+    depth_m: float
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.angle_rad) and 0.0 < self.angle_rad < math.pi):
+            raise ValueError(f"Groove.angle_rad: expected within (0, pi), found {self.angle_rad!r}")
+        if not (math.isfinite(self.depth_m) and self.depth_m > 0.0):
+            raise ValueError(f"Groove.depth_m: expected > 0, found {self.depth_m!r}")
+
+    @property
+    def half_width_m(self) -> float:
+        """Half the groove's width at the pad face, ``depth tan(angle / 2)``, m."""
+        return self.depth_m * math.tan(0.5 * self.angle_rad)
+
+    @property
+    def flank_sin(self) -> float:
+        """``sin(angle / 2)``: the squeeze per unit normal force on one flank, / 2."""
+        return math.sin(0.5 * self.angle_rad)
+
+
 @dataclass(frozen=True, eq=False)
 class Finger:
     """A named set of finger pads the gripper can be fitted with (a short pad for small parts,
-    a long one for deep reaches): size (width x, thickness y, length z, m) and friction."""
+    a long one for deep reaches, prism jaws for shafts): size (width x, thickness y, length z,
+    m), friction and an optional V-groove (:class:`Groove`)."""
 
     name: str
     size_m: np.ndarray
     friction: float
+    groove: Groove | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -268,7 +303,8 @@ class Gripper:
     """A parallel two-finger gripper. ``stroke_m`` is the largest opening between the pads;
     ``finger_size_m`` is (width along x, thickness along the closing axis, length along z).
     ``fingers`` are alternative pad sets a part's handling may choose by name
-    (:meth:`Product.gripper_for`); ``finger_name`` names the pads fitted ("" = the default)."""
+    (:meth:`Product.gripper_for`); ``finger_name`` names the pads fitted ("" = the default);
+    ``finger_groove`` is the fitted pads' V-groove (None: flat pads)."""
 
     stroke_m: float
     finger_size_m: np.ndarray
@@ -279,13 +315,15 @@ class Gripper:
     palm_size_m: np.ndarray = field(default_factory=lambda: np.array([0.04, 0.1, 0.03]))
     fingers: tuple[Finger, ...] = ()
     finger_name: str = ""
+    finger_groove: Groove | None = None
 
     def with_finger(self, name: str) -> Gripper:
         """This gripper fitted with the pad set ``name`` (KeyError naming the known ones)."""
         for f in self.fingers:
             if f.name == name:
                 return replace(self, finger_size_m=np.asarray(f.size_m, float),
-                               finger_friction=float(f.friction), finger_name=f.name)
+                               finger_friction=float(f.friction), finger_name=f.name,
+                               finger_groove=f.groove)
         raise KeyError(f'gripper has no finger "{name}"; it has: '
                        f'{", ".join(f.name for f in self.fingers) or "none"}')
 

@@ -177,11 +177,15 @@ PROCESS = Map({
     "position_tolerance": Field(Num("length", positive=True)),
     "max_slip": Field(Num("length", positive=True)),
 }, name="process knowledge")
+GROOVE = Map({"angle": Field(Num("angle", positive=True), required=True),
+               "depth": Field(Num("length", positive=True), required=True)},
+              name="a V-groove (prism) pad: included angle and depth")
 GRIPPER = Map({
     "type": Field(Str(("parallel",)), default="parallel"),
     "stroke": Field(Num("length", positive=True), required=True),
     "finger": Field(Map({"size": Field(Vec(3, "length", positive=True), required=True),
-                         "friction": Field(Num(positive=True, maximum=10.0), required=True)},
+                         "friction": Field(Num(positive=True, maximum=10.0), required=True),
+                         "groove": Field(GROOVE)},
                         name="finger"), required=True),
     "max_force": Field(Num("force", positive=True), required=True),
     "min_force": Field(Num("force", nonnegative=True), default=0.0),
@@ -189,7 +193,8 @@ GRIPPER = Map({
     "fingers": Field(ListOf(Map({"name": Field(Str(expected="a finger name"), required=True),
                                  "size": Field(Vec(3, "length", positive=True), required=True),
                                  "friction": Field(Num(positive=True, maximum=10.0),
-                                                   required=True)},
+                                                   required=True),
+                                 "groove": Field(GROOVE)},
                                 name="a finger")), default=[]),
 }, name="a gripper")
 JOINT_LIMITS = Map({"lower": Field(Num("angle")), "upper": Field(Num("angle")),

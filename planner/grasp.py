@@ -57,9 +57,10 @@ from typing import Any
 
 import numpy as np
 
-from ..knowledge.model import GraspHint, Gripper
+from ..knowledge.model import GraspHint, Gripper, Groove
 from ..parts.mesh import TriangleMesh, sample_surface
 from .errors import CollidingPair
+from .grasp_groove import groove_seat
 from .grasp_hold import (
     ContactPatch,
     GripLoad,
@@ -455,7 +456,7 @@ def iter_grasps(
         pad, palm_strip = strips[fi, u]
         g = _evaluate(pad, palm_strip, x, c, a, com, u, v, L, palm, cos_cone, max_width,
                       float(gripper.stroke_m), finger_clearance_m, surface.area_per_point_m2,
-                      hint)
+                      hint, gripper.finger_groove)
         if g is None:
             continue
         top, bottom = g[5]
@@ -522,11 +523,18 @@ class _Frame:
 def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
               a: np.ndarray, com: np.ndarray, u: float, v: float, L: float,
               palm: np.ndarray, cos_cone: float, max_width: float, stroke: float,
-              clearance: float, area_per_point: float, hint: GraspHint | None
+              clearance: float, area_per_point: float, hint: GraspHint | None,
+              groove: Groove | None = None
               ) -> tuple[np.ndarray, float, float, float, float,
                          tuple[ContactPatch, ContactPatch], float] | None:
     """(T_part_gripper, width, open width, contact area, CoM offset, the two pads' contact
-    patches (+y, -y), y of the pads' midplane in the frame's coordinates) or None."""
+    patches (+y, -y), y of the pads' midplane in the frame's coordinates) or None.
+
+    With grooved pads (``groove``), a part that seats in both grooves (:func:`groove_seat`)
+    is held on the four flanks; one that touches the lands only is held as by flat pads (the
+    flat patches about the pad's centre line under-count the torsion of the two strips
+    either side of the groove); one that would seat off the pads' centre line is rejected
+    (the grooves centre it, away from the planned pose)."""
     w = pad.window(v - L / 2, v + L / 2)
     yin = pad.Y[w]
     if yin.size == 0:
@@ -558,6 +566,20 @@ def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
     if np.any((np.abs(yp - y_mid) <= palm[1] / 2) & (palm_strip.Z[pw] < z_root)):
         return None
     xin, zin = pad.X[w], pad.Z[w]
+    if groove is not None:
+        seat = groove_seat(xin - u, yin - y_mid, zin - v, n_in @ x, n_in @ c, groove,
+                           cos_cone, area_per_point)
+        if seat is False:
+            return None
+        if seat is not None:
+            T = np.eye(4)
+            T[:3, 0], T[:3, 1], T[:3, 2] = x, c, a
+            T[:3, 3] = com + u * x + y_mid * c + v * a
+            open_width = min(stroke, width + 2.0 * clearance)
+            if hint is not None and hint.width_m is not None and width <= hint.width_m <= stroke:
+                open_width = float(hint.width_m)
+            area = min(p.area_m2 for p in seat)
+            return T, width, open_width, area, math.hypot(u, v), seat, y_mid
     ti, bi = np.flatnonzero(top)[top_ok], np.flatnonzero(bot)[bot_ok]
     nt, nb = n_in[ti], n_in[bi]
     patches = (ContactPatch.rigid(np.stack([xin[ti] - u, zin[ti] - v], axis=1),

@@ -109,11 +109,19 @@ class ContactPatch:
         shoulder under the pad's edge), the surface's slope to the pad plane there, as the
         gradient of its depth behind the pad (tan of the contact normal's tilt from the
         closing axis); None or 0 for a contact inside the pad.
+    groove_sin : float
+        ``sin(theta / 2)`` for a part seated on the two flanks of a V-groove of included
+        angle ``theta`` (:func:`asmplan.planner.grasp_groove.groove_seat`), 1 for a flat pad.
+        A squeeze ``F`` presses each flank with ``F / (2 sin(theta / 2))``: the pad's
+        friction is ``mu / sin(theta / 2)`` per newton of squeeze, and a twist about the
+        closing axis slides a flank's points along the groove by their distance across it
+        and across the groove by ``sin(theta / 2)`` of their distance along it.
     """
 
     points_m: np.ndarray
     area_m2: float
     slope: np.ndarray | None = None
+    groove_sin: float = 1.0
 
     def __post_init__(self) -> None:
         p = np.asarray(self.points_m, float)
@@ -122,6 +130,9 @@ class ContactPatch:
         object.__setattr__(self, "points_m", p)
         if self.slope is not None:
             object.__setattr__(self, "slope", np.asarray(self.slope, float).reshape(2))
+        if not (0.0 < self.groove_sin <= 1.0):
+            raise ValueError(f"ContactPatch.groove_sin: expected within (0, 1], found "
+                             f"{self.groove_sin!r}")
 
     @property
     def tilt_tan(self) -> float:
@@ -135,8 +146,8 @@ class ContactPatch:
         the tilt is outside the friction cone."""
         t = self.tilt_tan
         if t <= 0.0:
-            return float(mu)
-        return max(0.0, (float(mu) - t) / (1.0 + float(mu) * t))
+            return float(mu) / self.groove_sin
+        return max(0.0, (float(mu) - t) / (1.0 + float(mu) * t)) / self.groove_sin
 
     @classmethod
     def rigid(cls, points_m: np.ndarray, depth_m: np.ndarray, area_m2: float, band_m: float,
@@ -191,7 +202,8 @@ class ContactPatch:
     def torsion_radius_m(self) -> float:
         """Mean distance of the patch from its centroid, m (uniform pressure: the patch
         resists ``mu F`` times this about its centroid)."""
-        return float(np.linalg.norm(self.points_m - self.centroid_m, axis=1).mean())
+        d = self.points_m - self.centroid_m
+        return float(np.hypot(d[:, 0], self.groove_sin * d[:, 1]).mean())
 
 
 def _collapse_across(p: np.ndarray, d: np.ndarray, band_m: float) -> np.ndarray:

@@ -43,6 +43,7 @@ from ..parts.pieces import ConvexPiece
 from ..planner.trajectory import quat_xyzw_from_matrix
 from .bullet import BulletWorld
 from .bullet_specs import LinkSpec
+from .pad_shapes import pad_pieces
 
 TOUCH_RAMP_S = 0.01
 """Time over which the squeeze rises to the command once both pads touch, s
@@ -103,6 +104,9 @@ class GripperSpec:
     synchronisation_max_force_N : float
         Bound of the coupling's internal force, N (what the mechanism can carry along the
         closing axis before it gives).
+    pad_groove_angle_rad, pad_groove_depth_m : float
+        A V-groove along each pad's length (prism jaws, :mod:`asmplan.sim.pad_shapes`):
+        included angle and depth; depth 0 (the default) is a flat pad.
     synchronisation_erp : float
         Fraction of the coupling's travel mismatch the solver corrects per step (0 < erp <= 1).
         A numerical setting, measured on gear_unit at BALANCED: at 1.0 (full correction
@@ -135,6 +139,8 @@ class GripperSpec:
     synchronised: bool = True
     synchronisation_max_force_N: float = 2000.0
     synchronisation_erp: float = 0.5
+    pad_groove_angle_rad: float = 0.0
+    pad_groove_depth_m: float = 0.0
 
     def __post_init__(self) -> None:
         for label in ("pad_size_m", "palm_size_m"):
@@ -215,7 +221,6 @@ class Gripper:
         pad = np.asarray(spec.pad_size_m, dtype=float)
         palm = np.asarray(spec.palm_size_m, dtype=float)
         half_open = spec.max_opening_m / 2.0
-        pad_piece = ConvexPiece(kind="box", T_part_piece=np.eye(4), half_extents_m=pad / 2.0)
         palm_T = np.eye(4)
         palm_z = -(pad[2] / 2.0 + spec.palm_gap_m + palm[2] / 2.0)
         palm_T[2, 3] = palm_z
@@ -232,7 +237,8 @@ class Gripper:
             links.append(
                 LinkSpec(
                     name="finger1" if sign > 0 else "finger2",
-                    pieces=(pad_piece,),
+                    pieces=pad_pieces(pad, -sign, spec.pad_groove_angle_rad,
+                                      spec.pad_groove_depth_m),
                     mass_kg=spec.finger_mass_kg,
                     T_parent_link=T,
                     joint="prismatic",

@@ -325,10 +325,12 @@ def gripper_spec(resource: GripperResource, max_commanded_N: float = 0.0) -> Gri
     Pads are the finger boxes (``finger_size_m``: width x, thickness y, length z, centred on
     the TCP along z), the palm sits right behind them (``palm_gap_m = 0``) as in
     :func:`asmplan.parts.cell.gripper_model`; stroke, finger friction and mass come from
-    the resource. ``max_clamp_force_N`` is the resource's ``max_force_N`` or the largest
-    commanded force if larger (the plan is executed as planned; the excess is a warning).
+    the resource, and so does the pads' V-groove (prism jaws). ``max_clamp_force_N`` is the
+    resource's ``max_force_N`` or the largest commanded force if larger (the plan is
+    executed as planned; the excess is a warning).
     """
     finger = tuple(float(v) for v in resource.finger_size_m)
+    groove = resource.finger_groove
     finger_mass = 0.02
     palm_mass = max(float(resource.mass_kg) - 2 * finger_mass, 0.05)
     return GripperSpec(
@@ -340,6 +342,8 @@ def gripper_spec(resource: GripperResource, max_commanded_N: float = 0.0) -> Gri
         palm_size_m=tuple(float(v) for v in resource.palm_size_m),  # type: ignore[arg-type]
         palm_gap_m=0.0,
         max_clamp_force_N=max(float(resource.max_force_N), float(max_commanded_N), 1e-3),
+        pad_groove_angle_rad=0.0 if groove is None else float(groove.angle_rad),
+        pad_groove_depth_m=0.0 if groove is None else float(groove.depth_m),
     )
 
 
