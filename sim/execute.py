@@ -18,7 +18,9 @@ Definitions
   of the part's pose in this frame since the end of the "clamp" phase (first tick at or after
   it): translation norm (m) and rotation angle (rad).
 * Measured clamp force of a finger: sum of the contact normal forces between its pad and the
-  part. External force: total contact force (normal + friction) on the part from every other
+  part; on grooved pads each times the cosine of its normal's angle to the closing axis
+  (the squeeze: ``sin(theta / 2)`` on the flanks of a V-groove of included angle ``theta``).
+  External force: total contact force (normal + friction) on the part from every other
   body and from the palm.
 * Dropped: during the held phases (hold, lift, translate, lower) neither finger touches the
   part at some tick, or the slip exceeds ``criteria.drop_slip_m``.
@@ -251,6 +253,7 @@ def execute_step(
     wall0 = time.perf_counter()
     r = 0
     carry_anchor = carry_anchor and not fid.friction_anchor
+    grooved = gripper.spec.pad_groove_depth_m > 0.0
     anchored = False
     set_down = False  # the part touched something but the fingers in "lower"
     # switched on before the first step: changing Bullet's collision filter of a body drops
@@ -314,10 +317,12 @@ def execute_step(
         travel = gripper.finger_travel_m()
         con = part_contacts()
         is_finger = (con.body_b == gripper.body) & _is_finger_link(con.link_b)
-        forces = [
-            float(np.sum(con.normal_force_N[is_finger & (con.link_b == link)]))
-            for link in FINGER_LINKS
-        ]
+        # the squeeze: normal forces along the closing axis (a grooved pad's flanks press
+        # the part at +-(90 deg - theta/2) to it; a flat pad's normals lie along it)
+        squeeze = (con.normal_force_N * np.abs(con.normal_on_b @ T_tcp[:3, 1]) if grooved
+                   else con.normal_force_N)
+        forces = [float(np.sum(squeeze[is_finger & (con.link_b == link)]))
+                  for link in FINGER_LINKS]
         others = con.select(~is_finger)
         external = others.force_on_a_N()
         if is_lower[i] and axis is not None:

@@ -64,8 +64,9 @@ class GripperSpec:
     pad_friction : float
         Lateral friction coefficient of the pads (PyBullet multiplies it with the part's).
     pad_spinning_friction : float or None
-        Torsional friction coefficient of the pads, m. None: the mean distance of the pad's
-        contact face from its centre, so that a uniformly loaded face resists a twist with
+        Torsional friction coefficient of the pads, m. None: 0 for grooved pads (their flank
+        lines carry the twist), else the mean distance of the pad's contact face from its
+        centre, so that a uniformly loaded face resists a twist with
         ``mu N r_mean`` (PyBullet combines ``s_pad mu_part``). Without it (or without cone
         friction, see :class:`~asmplan.sim.fidelity.Fidelity`) a grip pivots about the
         closing axis long before it slips.
@@ -225,8 +226,10 @@ class Gripper:
         palm_z = -(pad[2] / 2.0 + spec.palm_gap_m + palm[2] / 2.0)
         palm_T[2, 3] = palm_z
         palm_piece = ConvexPiece(kind="box", T_part_piece=palm_T, half_extents_m=palm / 2.0)
+        # a grooved pad holds a round part on four flank lines whose friction carries the
+        # twist; the flat face's torsion radius would credit it a second time
         spin = (
-            pad_torsion_radius_m(pad[0], pad[2])
+            (0.0 if spec.pad_groove_depth_m > 0.0 else pad_torsion_radius_m(pad[0], pad[2]))
             if spec.pad_spinning_friction is None
             else spec.pad_spinning_friction
         )
