@@ -17,6 +17,7 @@ predicted force.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -117,3 +118,42 @@ def test_simulated_threshold_agrees_with_the_criterion(factor, holds):
         assert angle < 0.5 and shift < 0.5e-3, (angle, shift)
     else:
         assert angle > 1.0, (angle, shift)
+
+
+def _ring(n: int = 2000, centre_x: float = 0.0, seed: int = 3):
+    rng = np.random.default_rng(seed)
+    phi = rng.uniform(0.0, 2.0 * math.pi, n)
+    z = rng.uniform(0.0, 0.005, n)
+    return (centre_x + HEAD_R_M * np.cos(phi), HEAD_R_M * np.sin(phi), z, np.cos(phi),
+            np.sin(phi))
+
+
+def test_seat_on_the_flank_lines_off_centre_and_on_the_lands():
+    """A centred round head seats on four lines R cos 45 deg off the closing axis; 0.5 mm
+    off the grooves' centre line it is rejected (the grooves would move it); a groove too
+    narrow for it (its flank contact beyond the groove's edge) leaves it on the lands."""
+    cc = math.cos(math.atan(MU))
+    seat = groove_seat(*_ring(), GROOVE, cc, 1e-8)
+    assert isinstance(seat, tuple)
+    for patch in seat:
+        assert np.allclose(np.abs(patch.points_m[:, 0]), HEAD_R_M * math.cos(math.pi / 4),
+                           atol=2e-4)
+        assert patch.friction(MU) == pytest.approx(MU / math.sin(math.pi / 4))
+    assert groove_seat(*_ring(centre_x=5e-4), GROOVE, cc, 1e-8) is False
+    assert groove_seat(*_ring(), Groove(math.radians(90.0), 0.004), cc, 1e-8) is None
+
+
+def test_groove_that_does_not_fit_the_pad_is_a_located_input_error(tmp_path):
+    from asmplan.knowledge.errors import ProductError
+    from asmplan.knowledge.loader import load_product
+
+    gearbox = Path(__file__).resolve().parents[1] / "fixtures" / "products" / "gearbox.yaml"
+    text = gearbox.read_text().replace("groove: {angle: 90, depth: 10}",
+                                       "groove: {angle: 90, depth: 16}")
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(ProductError, match=r"2 errors(.|\n)*bad\.yaml:\d+:\d+: resources\.gripper"
+                       r"\.fingers\[0\]\.groove\.depth: expected a depth below the pad's "
+                       r"thickness \(12 mm\), found 16 mm\n.*groove\.depth: expected a groove "
+                       r"narrower than the pad at its face \(30 mm\), found 32 mm"):
+        load_product(path)
