@@ -203,7 +203,9 @@ class ContactPatch:
         """Mean distance of the patch from its centroid, m (uniform pressure: the patch
         resists ``mu F`` times this about its centroid)."""
         d = self.points_m - self.centroid_m
-        return float(np.hypot(d[:, 0], self.groove_sin * d[:, 1]).mean())
+        if self.groove_sin != 1.0:
+            d = d * np.array([1.0, self.groove_sin])
+        return float(np.linalg.norm(d, axis=1).mean())
 
 
 def _collapse_across(p: np.ndarray, d: np.ndarray, band_m: float) -> np.ndarray:
