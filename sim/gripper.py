@@ -64,10 +64,9 @@ class GripperSpec:
     pad_friction : float
         Lateral friction coefficient of the pads (PyBullet multiplies it with the part's).
     pad_spinning_friction : float or None
-        Torsional friction coefficient of the pads, m. None: 0 for grooved pads (their flank
-        lines carry the twist), else the mean distance of the pad's contact face from its
-        centre, so that a uniformly loaded face resists a twist with
-        ``mu N r_mean`` (PyBullet combines ``s_pad mu_part``). Without it (or without cone
+        Torsional friction coefficient of the pads, m. None: the mean distance of the pad's
+        contact face (a grooved pad's: one land's) from its centre, so that a uniformly
+        loaded face resists a twist with ``mu N r_mean`` (PyBullet combines ``s_pad mu_part``). Without it (or without cone
         friction, see :class:`~asmplan.sim.fidelity.Fidelity`) a grip pivots about the
         closing axis long before it slips.
     max_opening_m : float
@@ -189,6 +188,15 @@ def pad_torsion_radius_m(width_m: float, height_m: float) -> float:
     ) / (6.0 * a * b)
 
 
+def _land_width_m(spec: GripperSpec) -> float:
+    """Width of the pad face that touches a flat part: the whole face, or for a grooved pad
+    one land beside the groove (a part bridging the groove bears on the two lands)."""
+    width = float(spec.pad_size_m[0])
+    if spec.pad_groove_depth_m <= 0.0:
+        return width
+    return width / 2.0 - spec.pad_groove_depth_m * math.tan(0.5 * spec.pad_groove_angle_rad)
+
+
 def _box_inertia(mass: float, size: np.ndarray) -> tuple[float, float, float]:
     a, b, c = size
     return (mass * (b * b + c * c) / 12, mass * (a * a + c * c) / 12, mass * (a * a + b * b) / 12)
@@ -226,10 +234,8 @@ class Gripper:
         palm_z = -(pad[2] / 2.0 + spec.palm_gap_m + palm[2] / 2.0)
         palm_T[2, 3] = palm_z
         palm_piece = ConvexPiece(kind="box", T_part_piece=palm_T, half_extents_m=palm / 2.0)
-        # a grooved pad holds a round part on four flank lines whose friction carries the
-        # twist; the flat face's torsion radius would credit it a second time
         spin = (
-            (0.0 if spec.pad_groove_depth_m > 0.0 else pad_torsion_radius_m(pad[0], pad[2]))
+            pad_torsion_radius_m(_land_width_m(spec), pad[2])
             if spec.pad_spinning_friction is None
             else spec.pad_spinning_friction
         )

@@ -8,10 +8,14 @@ the shaft about the closing axis. The criterion (:func:`~asmplan.planner.grasp_g
 and :func:`~asmplan.planner.grasp_hold.hold_requirement`, no safety factor, at rest) credits
 the four flank lines ``R cos 45 deg`` either side of the closing axis with ``mu F / (2 sin 45
 deg)`` each; the closed form is ``F = m g d sin(theta/2) / (2 mu R cos(theta/2))`` (8.6 N).
-Measured (BALANCED, 0.5 s after the weight comes on): 4 N drops the shaft, 6 N turns it
-1.2 deg, 8-20 N hold it within 0.3 deg (the seating as the weight comes on). The criterion is
-conservative by less than 40 %: the simulated threshold lies between 0.6 and 1.0 times the
-predicted force.
+Measured (BALANCED, 0.5 s after the weight comes on; predicted 8.9 N): 0.3 times the
+prediction drops the shaft, 0.45 times turns it 1.5 deg, 0.6 to 2 times hold it within
+0.15 deg. The criterion is conservative: the simulated threshold lies between 0.3 and 0.6
+times the predicted force. Part of the margin is the pads' spinning friction: a grooved pad
+gets the torsion radius of one land (so that a part bridging the groove, the gearbox shaft
+lying on the tray, holds as on flat pads; without it that shaft pivoted on one contact point
+per land and dropped), and PyBullet applies it at every flank point too. Without it the
+threshold was between 0.6 and 0.8 times the prediction.
 """
 
 from __future__ import annotations
@@ -109,10 +113,10 @@ def test_criterion_matches_the_closed_form():
     assert predicted_force_N() == pytest.approx(closed, rel=0.03)
 
 
-@pytest.mark.parametrize("factor, holds", [(0.45, False), (0.6, False), (1.0, True), (2.0, True)])
+@pytest.mark.parametrize("factor, holds", [(0.3, False), (0.6, True), (1.0, True), (2.0, True)])
 def test_simulated_threshold_agrees_with_the_criterion(factor, holds):
-    """Below 0.6 times the predicted force the shaft turns more than 1 deg in 0.5 s; at the
-    predicted force and above it stays within 0.5 deg and 0.5 mm."""
+    """At 0.3 times the predicted force the shaft turns more than 1 deg in 0.5 s; from 0.6
+    times it stays within 0.5 deg and 0.5 mm (the simulated threshold lies between)."""
     angle, shift = held_turn(factor * predicted_force_N())
     if holds:
         assert angle < 0.5 and shift < 0.5e-3, (angle, shift)
