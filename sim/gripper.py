@@ -66,9 +66,10 @@ class GripperSpec:
     pad_spinning_friction : float or None
         Torsional friction coefficient of the pads, m. None: the mean distance of the pad's
         contact face (a grooved pad's: one land's) from its centre, so that a uniformly
-        loaded face resists a twist with ``mu N r_mean`` (PyBullet combines ``s_pad mu_part``). Without it (or without cone
-        friction, see :class:`~asmplan.sim.fidelity.Fidelity`) a grip pivots about the
-        closing axis long before it slips.
+        loaded face resists a twist with ``mu N r_mean`` (PyBullet combines
+        ``s_pad mu_part``). Without it (or without cone friction, see
+        :class:`~asmplan.sim.fidelity.Fidelity`) a grip pivots about the closing axis long
+        before it slips.
     max_opening_m : float
         Distance between the pads' contact faces when fully open, m.
     finger_mass_kg, palm_mass_kg : float
