@@ -35,11 +35,14 @@ balanced -o OUT`, results.json per step), with the cause of each failure:
   (where its flange and sleeve pieces meet; 75 N along -x), the grip then sliding at its
   axial friction limit 2 mu F / sin 45 deg = 75 N; but the shaft's regrasp pick (lying on
   the tray, bridging the groove) then pivoted on one contact point per land and dropped.
-  xfail.
+  On main with the exact fit contact (rebased 14:22) it slips 3.1 mm / 2.3 deg in the
+  pads already in the transfer, turning about the gripper's x axis (tipping about the
+  flank lines, 5.25 mm long), and stops on the rim 3.17 mm off, tilt 2.52 deg. xfail.
 * bearing_2: jams at 4.5 of 16 mm on the seat's chamfer (two housing contacts, 31 and 29 N,
   tilt 0.54 deg) while its bore runs onto the shaft, and the 48.7 N grip (34 N of axial
   friction at mu 0.35) slides 11.4 mm. H7/h6 at its 0 um minimum clearance is below
-  BALANCED's 4 um resolution, and the clamp is not sized for the insertion reaction: xfail.
+  BALANCED's 4 um resolution, and the clamp is not sized for the insertion reaction (with
+  Bullet's contact). With the exact fit contact it goes in: passes.
 * cover: the seating's contact force peaks at 66.8 N against the process's 60 N limit (43.1 N
   with the 1.5 kg gripper estimate, 1.9 kg now; same grasp and 36.2 N clamp). A contact probe
   finds the gripper's palm (base link) touching the cover through the lift and the transfer
@@ -82,9 +85,9 @@ def _xfail(reason: str):
     ("shaft", "regrasp"),
     ("cover", "insert"),
     pytest.param("shaft", "insert", marks=_xfail(
-        "on prism jaws (37.7 N) the shaft turns 1.13 deg in the pads while the gripper turns it "
-        "from upright to horizontal (finger 1's squeeze reads 137 N, finger 2's 41 N: not "
-        "explained) and stops on bearing_1's rim (tilt 2.44 deg, 0.295 mm off)")),
+        "on prism jaws (37.7 N) the shaft slips 3.1 mm / 2.3 deg in the pads during the "
+        "transfer, turning about the gripper's x axis (tipping about the 5.25 mm flank lines), "
+        "and stops on bearing_1's rim (3.17 mm off, tilt 2.52 deg)")),
     # bearing_2 jammed 4.5 mm in on the seat chamfer (H7/h6 at 0 um) with Bullet's contact
     # (a strict xfail): with the exact fit contact it goes in
     ("bearing_2", "insert"),
