@@ -43,7 +43,7 @@ balanced -o OUT`, results.json per step), with the cause of each failure:
   sink 0.54 mm into the head, finger 1 reads up to 470 N, the shaft slides 0.8 mm back and
   tilts 3 deg in 0.35 s and is levered out and dropped (17.9 s). The transfer's turn is
   PyBullet's contact of the round head on the flank boxes, not the grip: the grip holds
-  0.45 N m against 0.12 N m, and the shaft carried alone along the planned poses turns
+  0.45 N m against 0.14 N m, and the shaft carried alone along the planned poses turns
   66 mrad at 37.7 N, 13.4 at half and 8.0 at twice the clamp
   (tests/sim/test_prism_transfer.py, a strict xfail). Finger 1's 137 N squeeze reading
   (s9) is locked-in wedging of the 90 deg V: with friction mu along the flanks the reading
