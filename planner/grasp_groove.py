@@ -20,6 +20,7 @@ support, moved across onto the support point (a round part touches a flank along
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 import numpy as np
 
@@ -35,7 +36,7 @@ _MIN_POINTS = 3
 
 def groove_seat(x_m: np.ndarray, y_m: np.ndarray, z_m: np.ndarray, nx: np.ndarray,
                 ny: np.ndarray, groove: Groove, cos_cone: float, area_per_point_m2: float
-                ) -> tuple[ContactPatch, ContactPatch] | bool | None:
+                ) -> tuple[ContactPatch, ContactPatch] | Literal[False] | None:
     """The two pads' contact patches (+y, -y) of a part seated in both grooves.
 
     Parameters
