@@ -277,6 +277,9 @@ def _step_rows(inp: ReportInputs, views: Views | None, folder: Path,
             "mates": ", ".join(step.mates) or "–",
             "success": None if outcome is None else bool(outcome.success),
             "reasons": "; ".join(outcome.reasons) if outcome is not None else "",
+            # a failure the preset does not resolve (asmplan.sim.resolution): not a verdict
+            "unresolved": ("; ".join(u.message for u in res.unresolved)
+                           if res is not None and res.unresolved else ""),
             "views": [], "plots": {},
             "notes": [*_press_notes(step, res),
                       *_step_notes([*step.notes, *(res.warnings if res is not None else ())],
@@ -415,9 +418,14 @@ def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True,
     elif inp.results is None:
         verdict = "not simulated"
     else:
-        failed = [s for s in steps if s["success"] is False]
+        failed = [s for s in steps if s["success"] is False and not s["unresolved"]]
+        unres = [s for s in steps if s["unresolved"]]
         verdict = (f"step(s) {', '.join(str(s['number']) for s in failed)} fail" if failed
-                   else "every step succeeds")
+                   else "" if unres else "every step succeeds")
+        if unres:
+            verdict += ("; " if failed else "") + (
+                f"step(s) {', '.join(str(s['number']) for s in unres)} not resolved at "
+                f"fidelity {inp.results.fidelity.name}")
         ops = [s for s in inp.plan.steps if s.kind == "operation"] if inp.plan else []
         if ops:
             verdict = verdict.replace("every step", "every simulated step") + (

@@ -26,7 +26,11 @@ e = 0 and e = c_d / 4 and STOP ON THE RIM with e = c_d (twice the capture radius
 * ACCURATE: right at 4 um (6 mm pin) -> 4 um (finer values not measured).
 
 Below it a clearance fit's capture (and with it rim stops and jams) is not resolved, so
-:func:`asmplan.sim.simulate.clearance_warnings` flags such fits. What makes BALANCED resolve
+:func:`asmplan.sim.simulate.clearance_warnings` flags such fits, a success there means "went in
+at this preset's resolution", and a step that stops on such a fit inside its capture boundary
+is reported as "not resolved at <preset>" with the preset that resolves it, not as jammed
+(:mod:`asmplan.sim.resolution`, which also covers FAST's pad creep, ``grip_creep``, and its
+impact penetration, ``impact_penetration_m``). What makes BALANCED resolve
 micrometres is the millimetre world (rims rounded by 1 um, EPA exact to 1 um) together with
 the contact distance (``contact_distance_m``): a contact is created that far before two
 bodies touch, so a part approaching at v finds the rim before it penetrates when
@@ -180,6 +184,19 @@ class Fidelity:
         held part and its mate partners is off and the pin in its bore is solved on the
         declared geometry (diameters as built, chamfers, depth), exactly in the wedge.
         BALANCED and ACCURATE: True; FAST: False (coarse on purpose, unchanged).
+    grip_creep : bool
+        The preset's pads may creep under a load the grip holds, so a slip, turn or drop of a
+        part whose planned clamp holds it (:mod:`asmplan.sim.resolution`) is not resolved.
+        FAST: True: gear_unit's 49 g shaft, held with a 6x torsion margin (the moment of its
+        weight and acceleration 0.019 N m against the pads' 0.114 N m), turned 1.0 deg in the
+        pads over its carry at 1/240 s, 2.3 deg (and slipped out) at 1/720 s, 0.83 deg at
+        1/960 s and 0.03 deg at 1/480 s: not converging in the time step. BALANCED and
+        ACCURATE: False (their slips are judged).
+    impact_penetration_m : float
+        Penetration the preset's solver leaves at an impact, m: a failed penetration
+        criterion within it is not resolved (:mod:`asmplan.sim.resolution`). FAST: 2 mm (at
+        1/240 s in metres an impact penetrates 1-2 mm, ``dt_s``; gear_unit's shaft 1.54 mm).
+        BALANCED and ACCURATE: 0 (every penetration above the criterion is a failure).
 """
 
     name: str
@@ -204,6 +221,8 @@ class Fidelity:
     rest_window_s: float = 0.0
     rest_displacement_m: float = 1e-6
     feature_contact: bool = False
+    grip_creep: bool = False
+    impact_penetration_m: float = 0.0
 
     def __post_init__(self) -> None:
         def positive(label: str, value: float) -> None:
@@ -249,6 +268,7 @@ class Fidelity:
         positive("interference_resolution_m", self.interference_resolution_m)
         nonneg("rest_window_s", self.rest_window_s)
         positive("rest_displacement_m", self.rest_displacement_m)
+        nonneg("impact_penetration_m", self.impact_penetration_m)
 
     @property
     def record_dt_s(self) -> float:
@@ -281,6 +301,8 @@ FAST = Fidelity(
     dynamic_partners=False,
     friction_anchor=True,
     bullet_units_per_m=1.0,
+    grip_creep=True,
+    impact_penetration_m=2e-3,
 )
 
 BALANCED = Fidelity(

@@ -15,6 +15,7 @@ from ..fileio import atomic_write_json, dumps_json
 from ..knowledge.model import Product
 from .fidelity import Fidelity
 from .records import StepOutcome, StepRecord, SuccessCriteria
+from .resolution import Unresolved
 from .scene import (
     SceneSettings,
 )
@@ -136,6 +137,12 @@ class StepResult:
     press : dict or None
         For a press step (:mod:`asmplan.sim.press`): who pressed, the final engaged depth,
         the peak force, the force-depth curve ``[[depth m, force N], ...]`` and the verdict.
+    pose_error : dict or None
+        The robot pose error applied at the insertion, if any.
+    unresolved : tuple of Unresolved
+        What the preset does not resolve in this failed step (:mod:`asmplan.sim.resolution`):
+        when set, the step is "unresolved", not "failed" (it is not a success either); the
+        outcome keeps what the preset saw as evidence.
     """
 
     index: int
@@ -150,10 +157,18 @@ class StepResult:
     timing_s: dict[str, float] = field(default_factory=dict)
     press: dict[str, Any] | None = None
     pose_error: dict[str, list[float]] | None = None
+    unresolved: tuple[Unresolved, ...] = ()
 
     @property
     def simulated(self) -> bool:
         return self.outcome is not None
+
+    @property
+    def verdict(self) -> str:
+        """"success", "failed" or "unresolved" (the preset does not resolve why it failed)."""
+        if self.success:
+            return "success"
+        return "unresolved" if self.unresolved else "failed"
 
     @property
     def success(self) -> bool:
@@ -181,6 +196,8 @@ class StepResult:
             "record": None,
             "scene": self.scene, "warnings": list(self.warnings), "press": self.press,
             **({} if self.pose_error is None else {"pose_error": self.pose_error}),
+            **({"unresolved": [u.to_dict() for u in self.unresolved]} if self.unresolved
+               else {}),
         })
         # the record is JSON-safe as it comes (StepRecord.to_dict): not walked element by
         # element again (its ~10^5 numbers were most of results.json's cost)
@@ -198,7 +215,8 @@ class StepResult:
                    record=None if d["record"] is None else StepRecord.from_dict(d["record"]),
                    scene=d["scene"], warnings=tuple(d["warnings"]), criteria=crit,
                    press=d.get("press"),
-                   pose_error=d.get("pose_error"))
+                   pose_error=d.get("pose_error"),
+                   unresolved=tuple(Unresolved.from_dict(u) for u in d.get("unresolved", ())))
 
 
 @dataclass(frozen=True, eq=False)
@@ -236,7 +254,14 @@ class PlanResults:
 
     @property
     def failed_steps(self) -> tuple[StepResult, ...]:
-        return tuple(s for s in self.steps if not s.success)
+        """Steps that failed for a reason the preset resolves."""
+        return tuple(s for s in self.steps if s.verdict == "failed")
+
+    @property
+    def unresolved_steps(self) -> tuple[StepResult, ...]:
+        """Steps that failed for a reason the preset does not resolve (neither a success
+        nor a failure; :mod:`asmplan.sim.resolution`)."""
+        return tuple(s for s in self.steps if s.verdict == "unresolved")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict (no wall-clock times; see :meth:`timing`)."""
@@ -248,6 +273,8 @@ class PlanResults:
             "scene_settings": asdict(self.scene_settings),
             "success": self.success,
             "failed_steps": [s.index for s in self.failed_steps],
+            **({"unresolved_steps": [s.index for s in self.unresolved_steps]}
+               if self.unresolved_steps else {}),
             "warnings": list(self.warnings),
             "steps": None,
         })

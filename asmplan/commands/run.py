@@ -56,6 +56,10 @@ def summary_table(result: RunResult) -> str:
         traj = step.trajectory
         cycle = f"{step.cycle_time_s:.2f}" if traj is not None else "-"
         verdict = "-" if o is None else ("ok" if o.success else "FAILED: " + "; ".join(o.reasons))
+        if sim is not None and sim.unresolved:
+            verdict = (f"NOT RESOLVED at {result.fidelity.name}: "
+                       + "; ".join(u.cause for u in sim.unresolved)
+                       + " (it saw: " + "; ".join(sim.reasons) + ")")
         if step.kind == "operation":
             verdict = f"placed by {step.operation}: not simulated"
         rows.append((str(step.index + 1), step.part, step.kind, cycle,
@@ -119,8 +123,17 @@ def run(args: argparse.Namespace) -> int:
             print(line, file=out)
     elif result.results is not None and not result.results.success:
         failed = ", ".join(f"{s.index + 1} ({s.part})" for s in result.results.failed_steps)
-        print(f"{product.name}: step(s) {failed} fail physically at fidelity {result.fidelity.name}",
-              file=out)
+        if failed:
+            print(f"{product.name}: step(s) {failed} fail physically at fidelity "
+                  f"{result.fidelity.name}", file=out)
+        unresolved = result.results.unresolved_steps
+        if unresolved:  # neither a success nor a failure (asmplan.sim.resolution)
+            names = ", ".join(f"{s.index + 1} ({s.part})" for s in unresolved)
+            needs = sorted({u.needs for s in unresolved for u in s.unresolved if u.needs})
+            print(f"{product.name}: step(s) {names} not resolved at fidelity "
+                  f"{result.fidelity.name}: not a verdict on the product"
+                  + (f"; run --fidelity {' or '.join(needs)} to judge them" if needs else ""),
+                  file=out)
     else:
         ops = [s for s in result.plan.steps if s.kind == "operation"] if result.plan else []
         also = (f" ({len(ops)} placed by another operation, not simulated: "

@@ -147,7 +147,8 @@ def run(args: argparse.Namespace) -> int:
             continue
         o = s.outcome
         assert o is not None
-        line = (f"step {s.index + 1} {s.part}: {'ok' if s.success else 'FAILED'} "
+        word = {"success": "ok", "failed": "FAILED", "unresolved": "NOT RESOLVED"}[s.verdict]
+        line = (f"step {s.index + 1} {s.part}: {word} "
                 f"(final position error {o.final_position_error_m * 1e3:.3f} mm, slip "
                 f"{o.max_slip_m * 1e3:.3f} mm, peak insertion force "
                 f"{o.peak_insertion_force_N:.2f} N, {s.wall_time_s:.1f} s)")
@@ -155,13 +156,19 @@ def run(args: argparse.Namespace) -> int:
         for w in s.warnings:
             if "below this fidelity's smallest resolvable clearance" not in w:  # named above
                 print(f"  warning: {w}", file=sys.stderr)
+        for u in s.unresolved:
+            print(f"asmplan simulate: step {s.index + 1} ({s.part}) {u.message}",
+                  file=sys.stderr)
         if not s.success:
-            print(f"asmplan simulate: step {s.index + 1} ({s.part}) failed: "
+            print(f"asmplan simulate: step {s.index + 1} ({s.part}) "
+                  f"{'saw' if s.unresolved else 'failed'}: "
                   f"{', '.join(s.failed_criteria)}", file=sys.stderr)
             for r in s.reasons:
                 print(f"  - {r}", file=sys.stderr)
-    verdict = "all steps succeeded" if results.success else \
+    n_unres = len(results.unresolved_steps)
+    verdict = "all steps succeeded" if results.success else (
         f"{len(results.failed_steps)} of {n_sim} simulated steps failed"
+        + (f", {n_unres} not resolved at this fidelity" if n_unres else ""))
     print(f"{product.name}: {n_sim} steps simulated at fidelity {fidelity.name}: {verdict}; "
           f"results written to {out} (times in {timing_path})")
     return 0 if results.success else 1
