@@ -24,9 +24,10 @@ Three causes, each decided from the plan and the preset, never from the outcome'
   it stays a failure. Interference and transition fits are simulated with their press force
   (:mod:`asmplan.sim.press`) and keep their verdict.
 * ``grip``: the part slipped, turned or dropped in the fingers at a preset whose pads creep
-  under a held load (``Fidelity.grip_creep``), while the planner's clamp holds the load with a
-  margin of at least :data:`GRIP_MARGIN_RESOLVED` (commanded force over the slip force
-  without the safety factor). Every preset resolves the slip threshold itself (the bench's
+  under a held load (``Fidelity.grip_creep``), while the simulated trajectory's clamp holds
+  the load with a margin of at least :data:`GRIP_MARGIN_RESOLVED` (the smallest force it
+  commands while carrying over the planner's slip force, its required force without the
+  safety factor). Every preset resolves the slip threshold itself (the bench's
   slip scenes, within 1 %).
 * ``contact``: the penetration criterion failed with a penetration the preset's solver leaves
   at an impact (``Fidelity.impact_penetration_m``: FAST 2 mm at 1/240 s in metres).
@@ -44,10 +45,12 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from .fidelity import PRESETS, Fidelity
+from .records import HELD_PHASES
 
 if TYPE_CHECKING:
     from ..knowledge.model import Mate, Product
     from ..planner.plan import Step
+    from ..planner.trajectory import Trajectory
     from .records import StepOutcome, StepRecord
 
 UnresolvedCode = Literal["fit", "grip", "contact"]
@@ -159,9 +162,22 @@ def _final_lateral_m(record: StepRecord | None) -> float:
     return float(lat[-1]) if lat.size else math.nan
 
 
+def held_clamp_force_N(trajectory: Trajectory) -> float:
+    """The smallest per-finger clamp force ``trajectory`` commands while it carries the part
+    (phases hold, lift, translate, lower), N; NaN when it has none of them."""
+    names = [p.name for p in trajectory.phases]
+    held = [names.index(n) for n in HELD_PHASES if n in names]
+    if not held:
+        return math.nan
+    idx = trajectory.phase_indices_at(np.asarray(trajectory.t_s, float))
+    f = np.asarray(trajectory.clamp_force_N, float)[np.isin(idx, held)]
+    return float(f.min()) if f.size else math.nan
+
+
 def unresolved_causes(outcome: StepOutcome, failed: Collection[str], step: Step,
                       product: Product, in_scene: Collection[str], fidelity: Fidelity,
-                      record: StepRecord | None = None) -> tuple[Unresolved, ...]:
+                      record: StepRecord | None = None,
+                      held_force_N: float | None = None) -> tuple[Unresolved, ...]:
     """What ``fidelity`` does not resolve in a failed step, when that explains every failed
     criterion (see the module docstring); () when the step succeeded or failed for a reason
     the preset resolves.
@@ -179,6 +195,11 @@ def unresolved_causes(outcome: StepOutcome, failed: Collection[str], step: Step,
     fidelity : Fidelity
     record : StepRecord, optional
         For a rim stop's final lateral offset.
+    held_force_N : float, optional
+        The per-finger clamp force the simulated trajectory commands while carrying, N
+        (:func:`held_clamp_force_N`; default: that of ``step.trajectory``). The grip margin
+        is this force over the planner's slip force (its required force without the
+        safety factor).
     """
     failed = set(failed)
     if outcome.success or not failed:
@@ -211,9 +232,12 @@ def unresolved_causes(outcome: StepOutcome, failed: Collection[str], step: Step,
             explained |= INSERTION_CRITERIA
     grip_failed = failed & GRIP_CRITERIA - explained
     clamp = step.clamp
-    if grip_failed and fidelity.grip_creep and clamp is not None:
+    if held_force_N is None and step.trajectory is not None:
+        held_force_N = held_clamp_force_N(step.trajectory)
+    if (grip_failed and fidelity.grip_creep and clamp is not None and held_force_N is not None
+            and math.isfinite(held_force_N)):
         slip_force = clamp.required_N / max(clamp.safety_factor, 1e-9)
-        margin = clamp.commanded_N / slip_force if slip_force > 0 else math.inf
+        margin = held_force_N / slip_force if slip_force > 0 else math.inf
         if margin >= GRIP_MARGIN_RESOLVED:
             causes.append(Unresolved(
                 "grip", fidelity.name, step.part, float(margin), GRIP_MARGIN_RESOLVED,

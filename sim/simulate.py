@@ -57,7 +57,7 @@ from .judge import failed_outcome
 from .pose_error import PoseError, apply_pose_error
 from .press import press_clearance_m, press_recorder, press_relaxed
 from .records import SuccessCriteria
-from .resolution import unresolved_causes
+from .resolution import held_clamp_force_N, unresolved_causes
 from .results import (
     PlanResults,
     StepResult,
@@ -243,7 +243,8 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
     table = criteria_table(outcome, crit, step.insertion_direction is not None)
     failed = [k for k, v in table.items() if not v["ok"]]
     # a failure the preset does not resolve is reported as such (asmplan.sim.resolution)
-    unresolved = unresolved_causes(outcome, failed, step, product, scene.parts, fidelity, record)
+    unresolved = unresolved_causes(outcome, failed, step, product, scene.parts, fidelity, record,
+                                   held_clamp_force_N(traj))
     return StepResult(index, step.part, step.kind, outcome, record, scene.summary(), warns,
                       table, wall_time_s=t3 - t0,
                       timing_s={"select": t1 - t0, "build": t2 - t1, "simulate": t3 - t2},
