@@ -27,11 +27,13 @@ fast", with the fit or the grip it does not resolve and the preset that does, no
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 
 import numpy as np
 import pytest
 
+from asmplan.cli import main
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.models import ProductGeometry
 from asmplan.planner.product import plan_product
@@ -190,3 +192,21 @@ def test_collar_step_at_fast(gear_plan):
     res = simulate_step(plan, _step(plan, "collar"), product, geometry, FAST)
     fit = _unresolved(res, "fit")["fit"]
     assert fit.subject == "collar_on_shaft"
+
+
+@pytest.mark.slow
+def test_run_at_fast_says_what_it_does_not_resolve(tmp_path, capsys):
+    """``asmplan run examples/gear_unit.yaml --fidelity fast``: the three steps are 'not
+    resolved at fidelity fast' (exit 1: not proven), none 'fails physically'; results.json
+    lists them apart from the failed steps."""
+    out = tmp_path / "out"
+    code = main(["run", str(example_path("gear_unit")), "--fidelity", "fast", "--no-report",
+                 "-j", "1", "-o", str(out)])
+    stdout = capsys.readouterr().out
+    assert code == 1
+    assert ("step(s) 3 (shaft), 5 (collar), 8 (cover) not resolved at fidelity fast" in stdout
+            and "run --fidelity balanced to judge them" in stdout)
+    assert "fail physically" not in stdout and "FAILED" not in stdout
+    data = json.loads((out / "results.json").read_text())
+    assert data["success"] is False and data["failed_steps"] == []
+    assert data["unresolved_steps"] == [2, 4, 7]
