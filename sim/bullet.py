@@ -231,6 +231,7 @@ class BulletWorld:
         self._joint_kinds: dict[int, tuple[str, ...]] = {}
         self._probe: int | None = None
         self._probe_r = 0.0
+        self._held_static: set[int] = set()
         cid = self._cid
         pybullet.setGravity(*(self._S * self.gravity_mps2).tolist(), physicsClientId=cid)
         pybullet.setPhysicsEngineParameter(
@@ -897,6 +898,40 @@ class BulletWorld:
                                 physicsClientId=cid)
         pybullet.changeDynamics(body, -1, activationState=pybullet.ACTIVATION_STATE_SLEEP,
                                 physicsClientId=cid)
+
+    def hold_static(self, body: int, static: bool) -> None:
+        """Make a dynamic body immovable where it is (mass 0 on every link: Bullet then
+        treats it as a fixed base and stops solving its contacts with other static bodies)
+        or give it back its mass and inertia, from rest (``changeDynamics(mass=...)``;
+        :mod:`asmplan.sim.partner_hold`). :meth:`is_static` tells the present state."""
+        info = self._bodies[body]
+        if info.static:
+            raise ValueError(f"hold_static: body {info.name!r} is static from its creation")
+        if static == (body in self._held_static):
+            return
+        cid = self.client_id
+        n = info.n_links + 1
+        pybullet.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
+        moments = np.diag(info.T_link_inertial[:3, :3].T @ info.inertia_kgm2
+                          @ info.T_link_inertial[:3, :3])
+        for link in range(-1, info.n_links):
+            if static:
+                pybullet.changeDynamics(body, link, mass=0.0, physicsClientId=cid)
+            else:
+                pybullet.changeDynamics(body, link, mass=info.mass_kg / n,
+                                        localInertiaDiagonal=(self._S2 * moments / n).tolist(),
+                                        physicsClientId=cid)
+        if static:
+            self._held_static.add(body)
+        else:
+            self._held_static.discard(body)
+            pybullet.changeDynamics(body, -1, activationState=pybullet.ACTIVATION_STATE_WAKE_UP,
+                                    physicsClientId=cid)
+
+    def is_static(self, body: int) -> bool:
+        """Whether a body cannot move now: static from its creation or held static
+        (:meth:`hold_static`)."""
+        return self._bodies[body].static or body in self._held_static
 
     def max_penetration_m(self, body_a: int) -> float:
         """Deepest penetration among body A's contact points after the last step, m (0 when

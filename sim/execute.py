@@ -48,6 +48,7 @@ from .feature_contact import HeldFitContact
 from .gripper import FINGER_LINKS, Gripper
 from .guard import SceneWatch
 from .judge import _SPEED_MARGIN_MPS, _failures, judge
+from .partner_hold import PartnerHold
 from .records import StepOutcome, StepRecord, SuccessCriteria
 from .rest import RestKeeper
 from .verdicts import ContactEvidence, Failure, SceneGuard, two_point_contacts
@@ -145,6 +146,7 @@ def execute_step(
     guard: SceneGuard | None = None,
     carry_anchor: bool = False,
     fit_contact: HeldFitContact | None = None,
+    partner_hold: PartnerHold | None = None,
 ) -> tuple[StepRecord, StepOutcome]:
     """Drive the gripper along ``trajectory`` and judge the step.
 
@@ -187,6 +189,10 @@ def execute_step(
         before the first step and kept to the end (it costs nothing while the pin is away from
         its bore); its points join Bullet's in every contact criterion (insertion force,
         penetration, two-point evidence).
+    partner_hold : PartnerHold, optional
+        Holds the mate partners static while the load check allows
+        (:mod:`asmplan.sim.partner_hold`): started after the first physics step, checked at
+        every peak sample.
 
     Returns
     -------
@@ -291,6 +297,8 @@ def execute_step(
         world.step()
         if fit_contact is not None:
             fit_contact.after_step()
+        if partner_hold is not None and (i == 0 or (i + 1) % peak_every == 0):
+            partner_hold.check(float(t_cmd[i]))
         if r >= m or tick_steps[r] != i:
             # between record rows: sample the peak criteria at their own rate
             if (i + 1) % peak_every:

@@ -176,7 +176,7 @@ class HeldFitContact:
         w, V = np.linalg.eigh(inertia_link)
         self._inv_sqrt_inertia_link = V @ np.diag(1.0 / np.sqrt(w)) @ V.T
         self._partners = sorted({p.partner for p in self.pairs})
-        self._dynamic = {b: world.body_mass_kg(b) > 0.0 for b in self._partners}
+        self._dynamic = {b: not world.is_static(b) for b in self._partners}
         self._reach = max(p.model.pin.length_m + p.model.pin.radius_m
                           + p.model.bore.rim_radius_m for p in self.pairs)
         self.active = False
@@ -231,6 +231,8 @@ class HeldFitContact:
         """Apply last step's reaction to dynamic partners (one step late)."""
         if not self.active:
             return
+        # a partner may be switched between static and dynamic (asmplan.sim.partner_hold)
+        self._dynamic = {b: not self.world.is_static(b) for b in self._partners}
         for body, force, point in self._reaction:
             if self._dynamic[body]:
                 self.world.apply_force(body, -1, force.tolist(), point.tolist())
@@ -440,6 +442,10 @@ class HeldFitContact:
                 weights = f_n[sel] / float(np.sum(f_n[sel]))
                 point = np.sum(weights[:, None] * found.point_m[sel], axis=0)
                 self._reaction.append((b, -total, point))
+
+    def reaction_on(self, body: int) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The last step's reaction on a partner: (force N (3,), point m (3,)) pairs."""
+        return [(force, point) for b, force, point in self._reaction if b == body]
 
     def contacts(self) -> Contacts:
         """The pin's contact points with the bore after the last step (with their forces)."""

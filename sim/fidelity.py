@@ -197,6 +197,18 @@ class Fidelity:
         criterion within it is not resolved (:mod:`asmplan.sim.resolution`). FAST: 2 mm (at
         1/240 s in metres an impact penetrates 1-2 mm, ``dt_s``; gear_unit's shaft 1.54 mm).
         BALANCED and ACCURATE: 0 (every penetration above the criterion is a failure).
+    partner_hold_fraction : float
+        Dynamic mate partners held static under a load check
+        (:mod:`asmplan.sim.partner_hold`): after the step's first physics step each group of
+        partners resting on static supports is made immovable, and at every peak sample
+        (``asmplan.sim.execute.PEAK_SAMPLE_DT_S``) the loads of the held part, the gripper
+        and the exact fit contact on it are checked against this share of its support's
+        friction (mu x (weight + push)) and of its weight's restoring moment about every
+        edge of its bearing polygon; the first sample beyond either gives the group its
+        mass back, from rest, to the end of the step. 0 turns it off. BALANCED: 0.5 (the
+        seed job's simulation CPU 9.4 -> see docs/physics.md, "Mate partners held static";
+        same verdicts). FAST: 0 (its partners are static throughout). ACCURATE: 0 (not
+        measured; the final proof keeps every partner dynamic).
 """
 
     name: str
@@ -223,6 +235,7 @@ class Fidelity:
     feature_contact: bool = False
     grip_creep: bool = False
     impact_penetration_m: float = 0.0
+    partner_hold_fraction: float = 0.0
 
     def __post_init__(self) -> None:
         def positive(label: str, value: float) -> None:
@@ -267,6 +280,9 @@ class Fidelity:
         positive("min_resolvable_clearance_m", self.min_resolvable_clearance_m)
         positive("interference_resolution_m", self.interference_resolution_m)
         nonneg("rest_window_s", self.rest_window_s)
+        if not 0.0 <= self.partner_hold_fraction <= 1.0:
+            raise ValueError(f"Fidelity.partner_hold_fraction: expected a value in [0, 1], "
+                             f"found {self.partner_hold_fraction}")
         positive("rest_displacement_m", self.rest_displacement_m)
         nonneg("impact_penetration_m", self.impact_penetration_m)
 
@@ -323,6 +339,7 @@ BALANCED = Fidelity(
     interference_resolution_m=0.05e-3,
     rest_window_s=0.1,
     feature_contact=True,
+    partner_hold_fraction=0.5,
 )
 
 ACCURATE = Fidelity(

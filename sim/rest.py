@@ -99,6 +99,9 @@ class RestKeeper:
         movers = {self._gripper} if released else {self._gripper, self._held}
         resting: set[int] = set()
         for b in self._bodies:
+            if w.is_static(b):  # held static (asmplan.sim.partner_hold): not at rest, immovable
+                self._history[b].clear()
+                continue
             v, om = w.velocity(b)
             if b in self._asleep:
                 if not (np.any(v) or np.any(om)):
@@ -117,7 +120,7 @@ class RestKeeper:
         if not resting:
             return
         near = {b: w.bodies_near(b, NEAR_MARGIN_M) for b in resting}
-        awake = set(self._bodies) - self._asleep
+        awake = {b for b in self._bodies if not w.is_static(b)} - self._asleep
         # a moving body near: stays awake; then so does every resting body touching an awake
         # one that stays awake (until nothing changes)
         sleepy = {b for b in resting if not movers & near[b]}

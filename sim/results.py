@@ -143,6 +143,10 @@ class StepResult:
         What the preset does not resolve in this failed step (:mod:`asmplan.sim.resolution`):
         when set, the step is "unresolved", not "failed" (it is not a success either); the
         outcome keeps what the preset saw as evidence.
+    partners : list of dict or None
+        The mate partners held static under a load check (:mod:`asmplan.sim.partner_hold`),
+        one entry per group: bodies, whether held, why not or when and why it woke, the
+        number of checks and the largest sliding and tipping ratios seen.
     """
 
     index: int
@@ -158,6 +162,7 @@ class StepResult:
     press: dict[str, Any] | None = None
     pose_error: dict[str, list[float]] | None = None
     unresolved: tuple[Unresolved, ...] = ()
+    partners: list[dict[str, Any]] | None = None
 
     @property
     def simulated(self) -> bool:
@@ -198,6 +203,7 @@ class StepResult:
             **({} if self.pose_error is None else {"pose_error": self.pose_error}),
             **({"unresolved": [u.to_dict() for u in self.unresolved]} if self.unresolved
                else {}),
+            **({} if self.partners is None else {"partners": self.partners}),
         })
         # the record is JSON-safe as it comes (StepRecord.to_dict): not walked element by
         # element again (its ~10^5 numbers were most of results.json's cost)
@@ -216,7 +222,8 @@ class StepResult:
                    scene=d["scene"], warnings=tuple(d["warnings"]), criteria=crit,
                    press=d.get("press"),
                    pose_error=d.get("pose_error"),
-                   unresolved=tuple(Unresolved.from_dict(u) for u in d.get("unresolved", ())))
+                   unresolved=tuple(Unresolved.from_dict(u) for u in d.get("unresolved", ())),
+                   partners=d.get("partners"))
 
 
 @dataclass(frozen=True, eq=False)

@@ -54,6 +54,7 @@ from .fidelity import BALANCED, PRESETS, Fidelity
 from .fit_pairs import held_fit_contact
 from .gripper import CoupledGripper, GripperSpec
 from .judge import failed_outcome
+from .partner_hold import PartnerHold
 from .pose_error import PoseError, apply_pose_error
 from .press import press_clearance_m, press_recorder, press_relaxed
 from .records import SuccessCriteria
@@ -231,6 +232,9 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
         # first step, 2.2 m/s; without, the step succeeds)
         fit = (held_fit_contact(world, ids, step.part, product, geometry)
                if fidelity.feature_contact and step.kind != "regrasp" else None)
+        hold = (PartnerHold(world, gripper.body, ids[step.part], fit,
+                            fidelity.partner_hold_fraction)
+                if fidelity.partner_hold_fraction > 0.0 else None)
         record, outcome = execute_step(world, gripper, ids[step.part], traj, crit,
                                        T_world_part_target=step.T_world_final,
                                        mate_axis_world=step.insertion_direction,
@@ -238,7 +242,7 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
                                        before_step=None if press is None else press.before_step,
                                        insertion_length_m=step.insertion_length_m or None,
                                        guard=guard, carry_anchor=fidelity.carry_anchor,
-                                       fit_contact=fit)
+                                       fit_contact=fit, partner_hold=hold)
     t3 = time.perf_counter()
     table = criteria_table(outcome, crit, step.insertion_direction is not None)
     failed = [k for k, v in table.items() if not v["ok"]]
@@ -249,7 +253,8 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
                       table, wall_time_s=t3 - t0,
                       timing_s={"select": t1 - t0, "build": t2 - t1, "simulate": t3 - t2},
                       press=None if press is None else press.summary(),
-                      pose_error=applied, unresolved=unresolved)
+                      pose_error=applied, unresolved=unresolved,
+                      partners=None if hold is None else hold.summary())
 
 
 def handover_fidelity(fidelity: Fidelity, step: Step) -> Fidelity:
