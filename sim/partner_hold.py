@@ -38,7 +38,6 @@ cost: docs/physics.md, "Mate partners held static under a load check".
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -63,7 +62,7 @@ def _hull_2d(p: np.ndarray) -> np.ndarray:
     """Indices of the convex hull of 2-D points (n, 2), counter-clockwise (monotone chain)."""
     order = np.lexsort((p[:, 1], p[:, 0]))
 
-    def half(idx: Sequence[int]) -> list[int]:
+    def half(idx: np.ndarray) -> list[int]:
         out: list[int] = []
         for k in idx:
             while len(out) >= 2:
