@@ -270,6 +270,9 @@ class PartnerHold:
                 continue
             F, tau = self._loads(grp)
             grp.checks += 1
+            if not (np.any(F) or np.any(tau)):  # nothing on it but its weight: ratios 0
+                grp.max_slide, grp.max_tip = max(grp.max_slide, 0.0), max(grp.max_tip, 0.0)
+                continue
             L = F + grp.mass_kg * self._g
             N = -float(L @ up)
             T = float(np.linalg.norm(L + N * up))
