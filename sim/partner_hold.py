@@ -17,7 +17,8 @@ at ``r_i`` from every body outside the group (Bullet's contact forces and the re
 exact fit contact, :mod:`asmplan.sim.feature_contact`):
 
 * Support: the points of the group's contacts with static bodies after the first step whose
-  normal is within 60 deg of ``up`` (bearing points), and ``mu`` the smallest Coulomb
+  normal is within 10 deg of ``up`` (bearing points: the checks take the support as
+  horizontal), and ``mu`` the smallest Coulomb
   coefficient of those pairs (Bullet's product of the two bodies' coefficients). A group with
   fewer than 3 bearing points spanning a polygon, or with its centre of mass outside that
   polygon, is not held (its reason is recorded).
@@ -46,8 +47,10 @@ import numpy as np
 from .bullet import BulletWorld
 from .feature_contact import HeldFitContact
 
-BEARING_COS = 0.5
-"""A support contact bears the partner when its normal is within 60 deg of ``up``."""
+BEARING_COS = math.cos(math.radians(10.0))
+"""A support contact bears the partner when its normal is within 10 deg of ``up``: the
+checks take the support as horizontal (a part on a slope or in a V cradle has no such
+polygon and is not held)."""
 
 MIN_SUPPORT_AREA_M2 = 1e-8
 """A bearing polygon smaller than this (0.1 mm x 0.1 mm) is a point or a line: not held."""
