@@ -38,7 +38,7 @@ _EXPORTS = {
     "plan_sequence": "asmplan.planner.sequence",
     "SequenceSettings": "asmplan.planner.sequence",
     "plan_product": "asmplan.planner.product",
-    "PlannerSettings": "asmplan.planner.plan",
+    "PlannerSettings": "asmplan.planner.settings",
     "Plan": "asmplan.planner.plan",
     "simulate_plan": "asmplan.sim.simulate",
     "PlanResults": "asmplan.sim.results",

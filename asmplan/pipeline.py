@@ -26,9 +26,10 @@ from .knowledge.model import Product
 from .parts.models import ProductGeometry
 from .planner.errors import PlanningError
 from .planner.fcl_oracle import FclOracle
-from .planner.plan import Plan, PlannerSettings
+from .planner.plan import Plan
 from .planner.product import plan_product, ranked_sequences
 from .planner.sequence import SequencePlan, SequenceSettings, plan_sequence
+from .planner.settings import PlannerSettings
 from .sim.fidelity import Fidelity, preset
 from .sim.pose_error import PoseError
 from .sim.results import PlanResults, StepResult

@@ -26,8 +26,8 @@ import numpy as np
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.models import ProductGeometry
 from asmplan.planner.arm import ArmModel
-from asmplan.planner.plan import PlannerSettings
 from asmplan.planner.product import plan_product
+from asmplan.planner.settings import PlannerSettings
 
 EXAMPLES = ("pinhole_station", "peg_in_hole", "gear_unit")
 

@@ -28,8 +28,8 @@ from asmplan.parts.models import ProductGeometry
 from asmplan.planner.errors import PlanningError
 from asmplan.planner.motion import MotionPlanner
 from asmplan.planner.partdata import part_data
-from asmplan.planner.plan import PlannerSettings
 from asmplan.planner.product import plan_product
+from asmplan.planner.settings import PlannerSettings
 
 EXAMPLES = ("pinhole_station", "peg_in_hole", "gear_unit")
 TARGET_MS = 50.0

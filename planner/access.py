@@ -213,8 +213,8 @@ class GripperAccess:
         from ..parts.models import ProductGeometry
         from .layout import initial_layout
         from .partdata import part_data
-        from .plan import PlannerSettings
         from .scene import Scene
+        from .settings import PlannerSettings
 
         ps = PlannerSettings(contact_tolerance_m=self.settings.contact_tolerance_m,
                              finger_clearance_m=self.settings.finger_clearance_m,

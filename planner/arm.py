@@ -50,7 +50,7 @@ from ..knowledge.model import Robot
 from ..parts.arm_links import link_models
 from ..parts.cell import HALF_TURN
 from ..parts.pieces import CollisionModel
-from .plan import ArmSettings
+from .settings import ArmSettings
 
 ARM_PREFIX = "arm:"
 TURN = HALF_TURN  # a parallel gripper's other way of holding the same grasp

@@ -41,7 +41,7 @@ import numpy as np
 from ..parts.pieces import CollisionModel
 from .arm import CARRIED, ArmModel
 from .errors import ArmCollisionError, CollidingPair
-from .plan import ArmSettings
+from .settings import ArmSettings
 
 _ENOUGH_M = 0.02  # exact distances only between bodies whose boxes come closer than this
 _STRIDE = 16  # the cross-leg travel bound: every 16th sample first, then the ones between

@@ -19,7 +19,8 @@ from .arm import _TWO_PI, ARM_PREFIX, TURN, ArmModel, IkSolution, _read_urdf
 from .arm_clearance import ArmClearance, _Phase
 from .arm_timing import joint_move_s, retime
 from .errors import ArmCollisionError, ArmPathError, JointLimitError, OutOfReachError
-from .plan import ArmMotion, ArmSettings
+from .plan import ArmMotion
+from .settings import ArmSettings
 from .trajectory import PhaseSpan, Trajectory
 
 

@@ -39,7 +39,7 @@ import numpy as np
 from ..knowledge.model import Robot
 from ..parts.cell import HALF_TURN
 from .errors import ArmCollisionError, ArmError, ArmPathError, JointLimitError, OutOfReachError
-from .plan import ArmSettings
+from .settings import ArmSettings
 
 if TYPE_CHECKING:
     from .arm import ArmModel

@@ -76,7 +76,7 @@ from .layout import initial_layout
 from .ompl_backend import SE3Bounds, plan_se3
 from .partdata import PartData
 from .path_turn import levelled_turns
-from .plan import Grasp, Plan, PlannerSettings, Step
+from .plan import Grasp, Plan, Step
 from .press import hand_over_pose, press_operation, press_step, product_press_fits
 from .regrasp_steps import plan_regrasp
 from .scene import (
@@ -89,6 +89,7 @@ from .scene import (
     colliding_pairs,
     translated,
 )
+from .settings import PlannerSettings
 from .timing import (
     Move,
     StepMotion,

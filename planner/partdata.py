@@ -13,7 +13,7 @@ from ..knowledge.model import Product
 from ..parts.models import ProductGeometry
 from ..parts.pieces import CollisionModel, LevelOfDetail
 from .grasp import GraspSurface
-from .plan import PlannerSettings
+from .settings import PlannerSettings
 
 
 @dataclass(frozen=True, eq=False)

@@ -21,8 +21,9 @@ from .errors import (
 from .fcl_oracle import FclOracle
 from .motion import MotionPlanner, PlanResult, StepTiming
 from .partdata import PartData, part_data
-from .plan import Plan, PlannerSettings, Step
+from .plan import Plan, Step
 from .sequence import SequencePlan, plan_sequence
+from .settings import PlannerSettings
 
 ProgressFn = Callable[[int, int, str, str], None]
 StepFn = Callable[[tuple[str, ...], Step, dict[str, np.ndarray]], None]

@@ -10,9 +10,9 @@ import pytest
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.check import check_assembly
 from asmplan.parts.models import ProductGeometry
-from asmplan.planner.plan import PlannerSettings
 from asmplan.planner.press import PressRequiredError
 from asmplan.planner.product import plan_product
+from asmplan.planner.settings import PlannerSettings
 from tests.conftest import example_path
 
 

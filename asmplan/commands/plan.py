@@ -15,7 +15,8 @@ from ..fileio import check_output_file
 from ..knowledge.loader import load_product
 from ..planner.errors import PlanningError
 from ..planner.ompl_backend import PLANNERS
-from ..planner.plan import PLAN_FORMAT, Plan, PlannerSettings
+from ..planner.plan import PLAN_FORMAT, Plan
+from ..planner.settings import PlannerSettings
 from .argtypes import nonnegative_int, positive_float
 from .textout import StageProgress, format_table
 

@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     from ..fileio import OutputFolder
     from ..knowledge.loader import load_product
     from ..pipeline import RunSettings, render_while_simulating, run_product, write_outputs
-    from ..planner.plan import PlannerSettings
+    from ..planner.settings import PlannerSettings
     from ..sim.pose_error import PoseError
 
     path = Path(args.product) if args.product else bundled_example()

@@ -119,7 +119,7 @@ def test_the_urdf_is_not_rescaled_by_the_product_units(tmp_path: Path) -> None:
     r = load_product(p).resources.robot
     assert r.T_world_base[1, 3] == pytest.approx(-14 * 0.0254)  # the YAML's lengths: inches
     from asmplan.planner.arm import ArmModel
-    from asmplan.planner.plan import ArmSettings
+    from asmplan.planner.settings import ArmSettings
 
     arm = ArmModel(r, ArmSettings())
     # the URDF's own metres: joint 2 sits 0.267 m above the base whatever the YAML's unit

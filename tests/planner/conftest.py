@@ -10,7 +10,7 @@ from asmplan.knowledge.loader import load_product
 from asmplan.knowledge.model import Product
 from asmplan.parts.models import ProductGeometry
 from asmplan.planner.partdata import PartData, part_data
-from asmplan.planner.plan import PlannerSettings
+from asmplan.planner.settings import PlannerSettings
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
 

@@ -21,8 +21,9 @@ from asmplan.parts.models import ProductGeometry
 from asmplan.planner.arm import ArmModel
 from asmplan.planner.arm_timing import joint_rates
 from asmplan.planner.errors import ArmCollisionError, JointLimitError, OutOfReachError
-from asmplan.planner.plan import ArmSettings, Plan
+from asmplan.planner.plan import Plan
 from asmplan.planner.product import plan_product as _plan_product
+from asmplan.planner.settings import ArmSettings
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "arm"
 

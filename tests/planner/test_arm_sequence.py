@@ -69,7 +69,7 @@ def test_the_reported_distance_is_the_flange_from_the_shoulder(drawer):
     80 mm approach), within the tool's length of the part's pre-insertion position."""
     from asmplan.planner.access import GripperAccess
     from asmplan.planner.arm import ArmModel
-    from asmplan.planner.plan import ArmSettings
+    from asmplan.planner.settings import ArmSettings
 
     product, oracle = drawer
     sp = plan_sequence(product, oracle, EVEN)

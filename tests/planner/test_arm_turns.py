@@ -11,7 +11,7 @@ import numpy as np
 from asmplan.knowledge.loader import load_product
 from asmplan.planner.arm_turns import apply_turns, best_turns, retune_turns
 from asmplan.planner.motion import MotionPlanner
-from asmplan.planner.plan import ArmSettings, PlannerSettings
+from asmplan.planner.settings import ArmSettings, PlannerSettings
 from tests.planner.conftest import ORDERS
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"

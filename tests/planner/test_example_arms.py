@@ -11,8 +11,8 @@ import pytest
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.models import ProductGeometry
 from asmplan.planner.arm import ArmModel
-from asmplan.planner.plan import ArmSettings
 from asmplan.planner.product import plan_product
+from asmplan.planner.settings import ArmSettings
 from tests.conftest import EXAMPLES
 
 NAMES = sorted(p.stem for p in EXAMPLES.glob("*.yaml"))

@@ -19,10 +19,11 @@ from asmplan.planner.errors import (
 )
 from asmplan.planner.insertion import insertion_spec
 from asmplan.planner.motion import MotionPlanner
-from asmplan.planner.plan import PlannerSettings, Step
+from asmplan.planner.plan import Step
 from asmplan.planner.product import plan_product
 from asmplan.planner.recheck import dense_recheck
 from asmplan.planner.scene import GRIPPER_CLOSED, BroadPhaseValidity
+from asmplan.planner.settings import PlannerSettings
 from asmplan.planner.trajectory import Trajectory
 from tests.planner.conftest import ORDERS
 

@@ -17,8 +17,9 @@ from asmplan.cli import main
 from asmplan.knowledge.errors import ProductError
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.models import ProductGeometry
-from asmplan.planner.plan import Plan, PlannerSettings, assembly_state
+from asmplan.planner.plan import Plan, assembly_state
 from asmplan.planner.product import plan_product
+from asmplan.planner.settings import PlannerSettings
 from tests.conftest import example_path
 
 HINT = "      grasp: {closing_axis: [0, 1, 0], approach_axis: [0, 0, -1]}\n"

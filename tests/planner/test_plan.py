@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from asmplan.cli import main
-from asmplan.planner.plan import PLAN_FORMAT, Grasp, Plan, PlannerSettings, Step
+from asmplan.planner.plan import PLAN_FORMAT, Grasp, Plan, Step
 from asmplan.planner.product import plan_product
+from asmplan.planner.settings import PlannerSettings
 from tests.conftest import example_path
 from tests.planner.conftest import FIXTURES, ORDERS
 

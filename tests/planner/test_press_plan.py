@@ -9,9 +9,10 @@ import pytest
 from asmplan.knowledge.errors import ProductError
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.models import ProductGeometry
-from asmplan.planner.plan import Plan, PlannerSettings
+from asmplan.planner.plan import Plan
 from asmplan.planner.press import PressRequiredError, push_capacity
 from asmplan.planner.product import plan_product
+from asmplan.planner.settings import PlannerSettings
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "press"
 DOWEL = FIXTURES / "steel_pin_in_steel.yaml"

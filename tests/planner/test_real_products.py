@@ -245,8 +245,8 @@ def test_tray_neighbours_20_mm_apart_are_not_hit_by_the_open_fingers(tmp_path):
     """The four dowels without start poses: the planner lays them out 20 mm apart; every
     chosen grasp keeps the open fingers clear of the neighbours, checked independently."""
     from asmplan.planner.layout import initial_layout
-    from asmplan.planner.plan import PlannerSettings
     from asmplan.planner.scene import GRIPPER_SPAN, Scene
+    from asmplan.planner.settings import PlannerSettings
 
     text = (PRODUCTS / "gearbox.yaml").read_text()
     # the dowels' start lines (the only ones at y = 240 mm) removed
@@ -453,7 +453,7 @@ def test_spacer_dropped_into_its_slot_starts_its_straight_segment_above_the_slot
     solution' in every order). The segment now starts where the spacer is clear of
     everything by the position tolerance: above the wall top (z = 80 mm), its underside at
     39 mm when seated."""
-    from asmplan.planner.plan import PlannerSettings
+    from asmplan.planner.settings import PlannerSettings
 
     product = load_product(PRODUCTS / "gearbox.yaml")
     planner = motion_planner(product, PlannerSettings())

@@ -15,9 +15,10 @@ from asmplan.knowledge.frames import rotation_from_rpy
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.models import ProductGeometry
 from asmplan.planner.errors import NoGraspError
-from asmplan.planner.plan import Plan, PlannerSettings, assembly_state
+from asmplan.planner.plan import Plan, assembly_state
 from asmplan.planner.product import plan_product
 from asmplan.planner.regrasp import free_positions, stable_orientations
+from asmplan.planner.settings import PlannerSettings
 from asmplan.sim.fidelity import BALANCED
 from asmplan.sim.simulate import simulate_step
 

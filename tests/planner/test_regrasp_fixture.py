@@ -16,8 +16,8 @@ from asmplan.parts.models import ProductGeometry
 from asmplan.planner.errors import NoGraspError
 from asmplan.planner.motion import MotionPlanner
 from asmplan.planner.partdata import part_data
-from asmplan.planner.plan import PlannerSettings
 from asmplan.planner.product import plan_product
+from asmplan.planner.settings import PlannerSettings
 
 PRODUCTS = Path(__file__).resolve().parents[1] / "fixtures" / "products"
 GEARBOX = PRODUCTS / "gearbox.yaml"

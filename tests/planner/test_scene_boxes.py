@@ -9,7 +9,7 @@ import pytest
 
 from asmplan.knowledge.frames import make_T
 from asmplan.planner.motion import MotionPlanner
-from asmplan.planner.plan import PlannerSettings
+from asmplan.planner.settings import PlannerSettings
 
 
 def test_box_gaps_near_and_closest_are_the_box_distances(examples, geometry_cache):

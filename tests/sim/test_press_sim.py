@@ -8,8 +8,8 @@ import pytest
 
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.models import ProductGeometry
-from asmplan.planner.plan import PlannerSettings
 from asmplan.planner.product import plan_product
+from asmplan.planner.settings import PlannerSettings
 from asmplan.sim.fidelity import BALANCED, FAST
 from asmplan.sim.simulate import simulate_plan
 

@@ -10,8 +10,9 @@ import pytest
 
 from asmplan.knowledge.loader import load_product
 from asmplan.parts.models import ProductGeometry
-from asmplan.planner.plan import PlannerSettings, assembly_state
+from asmplan.planner.plan import assembly_state
 from asmplan.planner.product import plan_product
+from asmplan.planner.settings import PlannerSettings
 from asmplan.sim.bodies import coarse_fills_path
 from asmplan.sim.fidelity import FAST
 from asmplan.sim.scene import step_scene

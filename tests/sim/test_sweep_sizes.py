@@ -14,9 +14,9 @@ from asmplan.knowledge import iso286
 from asmplan.knowledge.loader import load_product
 from asmplan.knowledge.press_fit import clearance_model
 from asmplan.parts.models import ProductGeometry
-from asmplan.planner.plan import PlannerSettings
 from asmplan.planner.press import product_press_fits
 from asmplan.planner.product import plan_product
+from asmplan.planner.settings import PlannerSettings
 from asmplan.sim import sweep as sw
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "press"
