@@ -11,7 +11,7 @@ from ..sim.fidelity import PRESETS
 
 def unresolved_fits(product: Product, fidelity: Any) -> list[dict[str, Any]]:
     """Mates whose smallest diametral clearance the preset cannot resolve, one row each
-    (the per-mate form of :func:`asmplan.sim.simulate.clearance_warnings`)."""
+    (the per-mate form of :func:`asmplan.sim.step_warnings.clearance_warnings`)."""
     if fidelity is None:
         return []
     res = fidelity.min_resolvable_clearance_m

@@ -26,7 +26,7 @@ e = 0 and e = c_d / 4 and STOP ON THE RIM with e = c_d (twice the capture radius
 * ACCURATE: right at 4 um (6 mm pin) -> 4 um (finer values not measured).
 
 Below it a clearance fit's capture (and with it rim stops and jams) is not resolved, so
-:func:`asmplan.sim.simulate.clearance_warnings` flags such fits, a success there means "went in
+:func:`asmplan.sim.step_warnings.clearance_warnings` flags such fits, a success there means "went in
 at this preset's resolution", and a step that stops on such a fit inside its capture boundary
 is reported as "not resolved at <preset>" with the preset that resolves it, not as jammed
 (:mod:`asmplan.sim.resolution`, which also covers FAST's pad creep, ``grip_creep``, and its

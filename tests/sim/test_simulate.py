@@ -23,7 +23,8 @@ from asmplan.sim.fidelity import ACCURATE, BALANCED, FAST
 from asmplan.sim.gripper import CoupledGripper
 from asmplan.sim.results import PlanResults, criteria_for
 from asmplan.sim.scene import build_scene, gripper_spec, step_scene
-from asmplan.sim.simulate import clearance_warnings, simulate_plan, simulate_step
+from asmplan.sim.simulate import simulate_plan, simulate_step
+from asmplan.sim.step_warnings import clearance_warnings
 
 G = 9.81
 
@@ -371,7 +372,7 @@ def test_an_insertion_faster_than_the_contact_distance_per_step_is_flagged():
     # issue 17: BALANCED finds a rim before penetrating while the part advances less than its
     # contact distance (25 um) per time step (sim/fidelity.py): the seed's 10 mm/s is 10 um
     _, product, _ = plan_for("pinhole_station")
-    from asmplan.sim.simulate import insertion_speed_warnings
+    from asmplan.sim.step_warnings import insertion_speed_warnings
 
     assert BALANCED.contact_distance_m == pytest.approx(25e-6)
     assert insertion_speed_warnings(product, "part2", BALANCED) == ()
