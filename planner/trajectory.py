@@ -73,6 +73,8 @@ def quat_xyzw_from_matrix(R: np.ndarray) -> np.ndarray:
         Quaternions with ``w >= 0``.
     """
     R = np.asarray(R, dtype=float)
+    if R.shape == (3, 3):
+        return _quat_xyzw_from_one_matrix(R)
     m00, m01, m02 = R[..., 0, 0], R[..., 0, 1], R[..., 0, 2]
     m10, m11, m12 = R[..., 1, 0], R[..., 1, 1], R[..., 1, 2]
     m20, m21, m22 = R[..., 2, 0], R[..., 2, 1], R[..., 2, 2]
@@ -91,6 +93,26 @@ def quat_xyzw_from_matrix(R: np.ndarray) -> np.ndarray:
     q = np.take_along_axis(cands, best[..., None, None], axis=-2)[..., 0, :]
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
     return np.where(q[..., 3:4] < 0.0, -q, q)
+
+
+def _quat_xyzw_from_one_matrix(R: np.ndarray) -> np.ndarray:
+    """:func:`quat_xyzw_from_matrix` of one (3, 3) matrix on Python floats (the same
+    operations in the same order, so the same bits; the simulator's per-step ``set_pose``
+    calls it, where numpy's small-array overhead was ~90 us a call)."""
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = R.tolist()
+    diag = (m00 + m11 + m22, m00, m11, m22)
+    best = max(range(4), key=diag.__getitem__)  # the first largest, as np.argmax
+    if best == 0:
+        q = (m21 - m12, m02 - m20, m10 - m01, 1.0 + m00 + m11 + m22)
+    elif best == 1:
+        q = (1.0 + m00 - m11 - m22, m01 + m10, m02 + m20, m21 - m12)
+    elif best == 2:
+        q = (m01 + m10, 1.0 - m00 + m11 - m22, m12 + m21, m02 - m20)
+    else:
+        q = (m02 + m20, m12 + m21, 1.0 - m00 - m11 + m22, m10 - m01)
+    norm = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    sign = -1.0 if q[3] / norm < 0.0 else 1.0
+    return np.array([sign * (v / norm) for v in q])
 
 
 def matrix_from_quat_xyzw(q: np.ndarray) -> np.ndarray:
