@@ -184,6 +184,8 @@ class HeldFitContact:
         self._com_link = T_link_inertial[:3, 3].copy()
         w, V = np.linalg.eigh(inertia_link)
         self._inv_sqrt_inertia_link = V @ np.diag(1.0 / np.sqrt(w)) @ V.T
+        self._minv_sqrt_linear = np.zeros((6, 6))  # M^(-1/2)'s linear block, rotation's zero
+        self._minv_sqrt_linear[:3, :3] = np.eye(3) / math.sqrt(mass)
         self._partners = sorted({p.partner for p in self.pairs})
         self._dynamic = {b: not world.is_static(b) for b in self._partners}
         self._reach = max(p.model.pin.length_m + p.model.pin.radius_m
@@ -462,8 +464,7 @@ class HeldFitContact:
 
     # ------------------------------------------------------------------ internals
     def _minv_sqrt(self, R: np.ndarray) -> np.ndarray:
-        Minv_sqrt = np.zeros((6, 6))
-        Minv_sqrt[:3, :3] = np.eye(3) / math.sqrt(self._mass)
+        Minv_sqrt = self._minv_sqrt_linear.copy()
         Minv_sqrt[3:, 3:] = R @ self._inv_sqrt_inertia_link @ R.T
         return Minv_sqrt
 
