@@ -565,6 +565,16 @@ def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
     yp = palm_strip.Y[pw]
     if np.any((np.abs(yp - y_mid) <= palm[1] / 2) & (palm_strip.Z[pw] < z_root)):
         return None
+    def placed() -> tuple[np.ndarray, float]:
+        """The grasp's pose (x across, c closing, a along) and the fingers' open width."""
+        T = np.eye(4)
+        T[:3, 0], T[:3, 1], T[:3, 2] = x, c, a
+        T[:3, 3] = com + u * x + y_mid * c + v * a
+        open_width = min(stroke, width + 2.0 * clearance)
+        if hint is not None and hint.width_m is not None and width <= hint.width_m <= stroke:
+            open_width = float(hint.width_m)
+        return T, open_width
+
     xin, zin = pad.X[w], pad.Z[w]
     if groove is not None:
         seat = groove_seat(xin - u, yin - y_mid, zin - v, n_in @ x, n_in @ c, groove,
@@ -572,12 +582,7 @@ def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
         if seat is False:
             return None
         if seat is not None:
-            T = np.eye(4)
-            T[:3, 0], T[:3, 1], T[:3, 2] = x, c, a
-            T[:3, 3] = com + u * x + y_mid * c + v * a
-            open_width = min(stroke, width + 2.0 * clearance)
-            if hint is not None and hint.width_m is not None and width <= hint.width_m <= stroke:
-                open_width = float(hint.width_m)
+            T, open_width = placed()
             area = min(p.area_m2 for p in seat)
             return T, width, open_width, area, math.hypot(u, v), seat, y_mid
     ti, bi = np.flatnonzero(top)[top_ok], np.flatnonzero(bot)[bot_ok]
@@ -590,12 +595,7 @@ def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
                                   yin[bi] - y_min, float(bi.size) * area_per_point,
                                   CONTACT_BAND_M,
                                   np.stack([nb @ x, nb @ a], axis=1) / -(nb @ c)[:, None]))
-    T = np.eye(4)
-    T[:3, 0], T[:3, 1], T[:3, 2] = x, c, a
-    T[:3, 3] = com + u * x + y_mid * c + v * a
-    open_width = min(stroke, width + 2.0 * clearance)
-    if hint is not None and hint.width_m is not None and width <= hint.width_m <= stroke:
-        open_width = float(hint.width_m)
+    T, open_width = placed()
     return T, width, open_width, area, math.hypot(u, v), patches, y_mid
 
 
