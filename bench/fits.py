@@ -53,12 +53,28 @@ TILT_DEG = 0.5
 """Tilt of the ``tilted`` case, deg."""
 HOLE_DEPTH_FACTOR = 1.5
 """Hole depth / pin diameter (engaged length of the generated fits)."""
+GRIPPER_MIN_FORCE_N = 15.0
+"""A realistic least clamp force for the bench gripper (``resources.gripper.min_force``), N:
+25 % of its 60 N maximum. Catalogue parallel grippers cannot squeeze gently below about a
+quarter of their maximum: Robotiq's 3-Finger Adaptive Gripper 15-60 N ("0x00 force does not
+mean zero force; it is the minimum force that the Gripper can apply", instruction manual,
+FORCE register), Weiss Robotics' IEG modules "recommended minimum gripping force is 25 % of
+the nominal gripping force" (manual 5.1.2), DH-Robotics PGC-140 40-140 N, AG-95 45-160 N and
+RGI-14 10-35 N (data sheets). Not in the bench product by default (``product_yaml``'s
+``min_force_N``): at this clamp Bullet's pads tip the 6 mm pin 0.73 mrad at the first touch
+and the 5 um fit stops on the rim at BALANCED (docs/physics.md, "Exact fit contact", the
+gripper's least clamp force)."""
 
 
-def product_yaml(diameter_m: float, clearance_m: float, chamfer_m: float = 0.0) -> str:
+def product_yaml(diameter_m: float, clearance_m: float, chamfer_m: float = 0.0,
+                 min_force_N: float = 0.0) -> str:
     """A product as a process engineer writes it: a fixtured steel block with one blind hole
     and a steel pin (a cylinder standing on the tray) that goes into it with diametral
-    clearance ``clearance_m``; no chamfers by default."""
+    clearance ``clearance_m``; no chamfers by default.
+
+    The gripper gives 60 N at most and ``min_force_N`` at least (0: none declared, the
+    planner commands what the pin needs, 0.06-2.1 N here; a real gripper's least force is
+    about a quarter of its maximum, :data:`GRIPPER_MIN_FORCE_N`)."""
     d = diameter_m * 1e3
     depth = round(HOLE_DEPTH_FACTOR * d, 3)
     pin_len = round(depth + d, 3)
@@ -66,6 +82,7 @@ def product_yaml(diameter_m: float, clearance_m: float, chamfer_m: float = 0.0) 
     block_h = round(depth + 10.0, 3)
     ch = f", chamfer: {chamfer_m * 1e3:g}" if chamfer_m > 0 else ""
     finger = round(min(25.0, 0.8 * d + 8), 1)
+    least = f"\n    min_force: {min_force_N:g}" if min_force_N > 0 else ""
     return f"""asmplan: 1
 product: fit_d{d:g}_c{clearance_m * 1e6:g}um
 units: {{length: mm, mass: g}}
@@ -95,7 +112,7 @@ resources:
   gripper:
     stroke: {round(d + 40, 1):g}
     finger: {{size: [{finger:g}, 8, 25], friction: 1.0}}
-    max_force: 60
+    max_force: 60{least}
   table: {{size: [600, 400, 40]}}
   fixtures: [{{name: vise, holds: block}}]
 """
@@ -394,6 +411,6 @@ def format_fits(res: FitsResult) -> str:
     return "\n".join(out) + "\n"
 
 
-__all__ = ["CASES", "FITS", "QUICK_FITS", "REFERENCE_DT_S", "FitRun", "FitsResult", "SeedJob",
-           "case_lateral_m", "expected_verdict", "fits_reference_fidelity", "format_fits",
-           "product_yaml", "run_fit", "run_fits", "run_seed_job"]
+__all__ = ["CASES", "FITS", "GRIPPER_MIN_FORCE_N", "QUICK_FITS", "REFERENCE_DT_S", "FitRun",
+           "FitsResult", "SeedJob", "case_lateral_m", "expected_verdict", "fits_reference_fidelity",
+           "format_fits", "product_yaml", "run_fit", "run_fits", "run_seed_job"]

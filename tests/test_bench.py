@@ -170,3 +170,37 @@ def test_fits_section_counts_a_verdict_against_geometry_and_the_reference() -> N
         product = load_product(p)
     (mate,) = product.mates
     assert mate.clearance_min_m == pytest.approx(10e-6) and mate.clearance_max_m == pytest.approx(10e-6)
+
+
+@pytest.mark.parametrize(("d_m", "c_m"), [(6e-3, 5e-6), (12e-3, 25e-6)])
+def test_fits_product_gripper_least_force(d_m, c_m):
+    """The fits bench's product declares no least clamp force by default (the planner commands
+    what the pin needs: m (g + a) sf / (2 mu), well under 1 N for these 3-30 g steel pins);
+    with ``min_force_N`` the gripper declares it and the planner commands it (docs/physics.md,
+    the gripper's least clamp force)."""
+    import tempfile
+    from pathlib import Path
+
+    from asmplan.knowledge.loader import load_product
+    from asmplan.planner.timing import clamp_force
+    from bench import fits as f
+
+    def load(text: str):
+        with tempfile.TemporaryDirectory() as tmp:
+            p = Path(tmp) / "fit.yaml"
+            p.write_text(text)
+            return load_product(p)
+
+    pin_len = f.HOLE_DEPTH_FACTOR * d_m + d_m
+    mass = 7850.0 * math.pi * d_m ** 2 / 4.0 * pin_len  # steel
+    plain = load(f.product_yaml(d_m, c_m))
+    assert plain.resources.gripper.min_force_N == 0.0
+    need = clamp_force(plain, "pin", mass)
+    mu = plain.resources.gripper.finger_friction * plain.part("pin").friction
+    expect = plain.process.safety_factor * mass * (9.81 + need.acceleration_m_s2) / (2 * mu)
+    assert need.commanded_N == pytest.approx(expect, rel=0.02) and need.commanded_N < 1.0
+    real = load(f.product_yaml(d_m, c_m, min_force_N=f.GRIPPER_MIN_FORCE_N))
+    assert real.resources.gripper.min_force_N == pytest.approx(15.0)
+    held = clamp_force(real, "pin", mass)
+    assert held.commanded_N == pytest.approx(15.0) and held.required_N == pytest.approx(
+        need.required_N)
