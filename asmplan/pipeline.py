@@ -244,15 +244,33 @@ class EarlyReport:
     (:mod:`asmplan.report.planviews`); :meth:`step_done`, given to :func:`run_product` as
     ``on_step_result``, draws each step's result pictures as its result comes back while other
     steps still simulate (:mod:`asmplan.report.steppictures`). :func:`write_outputs` into the
-    same folder then draws only what is left (the pictures are the same either way)."""
+    same folder then draws only what is left (the pictures are the same either way).
 
-    def __init__(self, folder: OutputFolder) -> None:
+    With ``workers`` >= 1 and the ``product``, the pictures are drawn by that many picture
+    processes forked now, before the run plans (:mod:`asmplan.report.picture_pool`), and this
+    process only hands them the plan and the results; :meth:`close` stops them (a run that
+    ends without :func:`write_outputs`)."""
+
+    def __init__(self, folder: OutputFolder, product: Product | None = None,
+                 workers: int = 0) -> None:
         self.folder = folder
+        self.pool = None
+        if product is not None and workers >= 1:
+            from .report.picture_pool import PicturePool
+
+            self.pool = PicturePool(product, folder.stage, workers)
 
     def __call__(self, result: RunResult) -> None:
         from .report.planviews import render_plan_views
 
         assert result.plan is not None  # called once the plan exists
+        if self.pool is not None:
+            from .report.html import report_template
+
+            self.pool.plan_ready(result.sequence, result.plan)
+            result.report_views = self
+            report_template()  # compiled now, not after the simulation
+            return
         result.report_views = render_plan_views(result.product, result.geometry,
                                                 result.sequence, result.plan, self.folder.stage)
 
@@ -261,6 +279,10 @@ class EarlyReport:
 
         A picture that fails here is left to :func:`write_outputs`, which draws it again and
         reports its error there, after every step's result is kept (as without this)."""
+        if self.pool is not None:
+            if self.pool.plan is not None:
+                self.pool.step_done(step_result)
+            return
         if result.report_views is None:
             return
         try:
@@ -268,12 +290,28 @@ class EarlyReport:
         except Exception:  # deferred: write_report draws it again and raises there
             result.report_views.steps.pop(step_result.index, None)
 
+    def views(self, result: RunResult) -> Any:
+        """The pictures drawn (a :class:`~asmplan.report.planviews.PlanViews` or None); with
+        picture processes, waits for them and stops them."""
+        if self.pool is None:
+            return result.report_views
+        return self.pool.views(result.geometry, result.results)
 
-def render_while_simulating(folder: OutputFolder) -> EarlyReport:
+    def close(self, *, now: bool = False) -> None:
+        """Stop the picture processes, if any (``now``: without waiting for them)."""
+        if self.pool is not None:
+            self.pool.close(now=now)
+
+
+def render_while_simulating(folder: OutputFolder, product: Product | None = None,
+                            workers: int = 0) -> EarlyReport:
     """A ``while_simulating`` for :func:`run_product` that renders the report's plan-only
     pictures into ``folder``'s staging folder (:mod:`asmplan.report.planviews`); its
     ``step_done``, passed as ``on_step_result``, draws each step's result pictures as the
     step finishes. :func:`write_outputs` into the same ``folder`` then renders only the rest.
+    With ``product`` and ``workers`` >= 1 (:func:`asmplan.report.picture_pool.picture_workers`)
+    the pictures are drawn by picture processes forked now, while the run plans; call it
+    before :func:`run_product` and :meth:`EarlyReport.close` if the run raises.
 
     >>> with OutputFolder("out") as folder:                            # doctest: +SKIP
     ...     early = render_while_simulating(folder)
@@ -281,7 +319,7 @@ def render_while_simulating(folder: OutputFolder) -> EarlyReport:
     ...                          on_step_result=early.step_done)
     ...     write_outputs(result, folder)
     """
-    return EarlyReport(folder)
+    return EarlyReport(folder, product, workers)
 
 
 def write_outputs(result: RunResult, outdir: str | Path | OutputFolder, *, report: bool = True,
@@ -318,10 +356,13 @@ def write_outputs(result: RunResult, outdir: str | Path | OutputFolder, *, repor
 
             if progress is not None:
                 progress("report", 0, 1, "")
+            prepared = result.report_views
+            if isinstance(prepared, EarlyReport):  # drawn by picture processes: wait for them
+                prepared = result.report_views = prepared.views(result)
             write_report(ReportInputs(result.product, result.geometry, result.sequence, result.plan,
                                       result.results, result.fidelity, result.failure,
                                       list(result.warnings), result.dropped_orders), stage,
-                         prepared=result.report_views)
+                         prepared=prepared)
             if progress is not None:
                 progress("report", 1, 1, "")
         target = folder.commit()

@@ -22,10 +22,10 @@ from .fits import unresolved_fits
 from .planviews import PlanViews, path_view_name
 from .steppictures import StepPictures, render_step_pictures
 from .steppictures import grip_limit as step_grip_limit
-from .views import Views
 
 if TYPE_CHECKING:
     from ..parts.models import ProductGeometry
+    from .views import Views  # the renderer (trimesh) is imported only where this process renders
 
 
 @dataclass
@@ -374,8 +374,13 @@ def write_report(inp: ReportInputs, folder: Path, *, render_images: bool = True,
     folder.mkdir(parents=True, exist_ok=True)
     if prepared is not None and not (render_images and prepared.usable_for(inp.plan, folder)):
         prepared = None
-    views = (prepared.views if prepared is not None
-             else Views(inp.product, inp.geometry) if render_images else None)
+    views: Views | None = None
+    if prepared is not None:
+        views = prepared.views
+    elif render_images:
+        from .views import Views
+
+        views = Views(inp.product, inp.geometry)
     images = {"assembled": "", "exploded": ""}
     if prepared is not None:
         images = dict(prepared.images)

@@ -28,10 +28,10 @@ from ..knowledge.model import Product
 from ..planner.plan import NOT_ROBOT_KINDS, Plan
 from . import plots
 from .steppictures import StepPictures, grip_limit, render_step_pictures
-from .views import Views
 
 if TYPE_CHECKING:
     from ..parts.models import ProductGeometry
+    from .views import Views
 
 
 def path_view_name(index: int) -> str:
@@ -117,6 +117,8 @@ def render_plan_views(product: Product, geometry: ProductGeometry, sequence: Any
     -------
     PlanViews
     """
+    from .views import Views
+
     c0 = time.process_time()
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)

@@ -19,14 +19,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..knowledge.model import Product
 from ..planner.plan import NOT_ROBOT_KINDS, Plan, Step
 from . import plots
-from .views import Views
+
+if TYPE_CHECKING:  # the renderer (trimesh) is imported where pictures are rendered
+    from .views import Views
 
 
 @dataclass(frozen=True)
@@ -68,12 +70,24 @@ def render_step_pictures(product: Product, plan: Plan, views: Views | None, step
 
     ``views`` None draws only the plots (a report without rendered images);
     ``grip_limit_N``: the clamp's limit drawn on the clamp-force plot (None without a clamp).
+    The rendered views (:func:`render_step_views`) and the plots (:func:`draw_step_plots`)
+    are independent: a run may draw them in different processes.
     """
+    entries = (render_step_views(product, plan, views, step, res, folder)
+               if views is not None else ())
+    return StepPictures(res, entries, draw_step_plots(step, res, folder, grip_limit_N))
+
+
+def render_step_views(product: Product, plan: Plan, views: Views, step: Step, res: Any,
+                      folder: Path) -> tuple[dict[str, str], ...]:
+    """Render the section at the simulated end and the animation of ``step`` (result ``res``,
+    None: not simulated) into ``folder``; their ``views`` entries (``src``, ``kind``,
+    ``caption``), none for a step the robot does not move."""
     folder = Path(folder)
     base = step_base_name(step.index)
     outcome = res.outcome if res is not None else None
     entries: list[dict[str, str]] = []
-    if views is not None and step.kind not in NOT_ROBOT_KINDS:
+    if step.kind not in NOT_ROBOT_KINDS:
         failed = outcome is not None and not outcome.success
         rec = res.record if res is not None else None
         placed = {s.part: s.T_world_final for s in plan.steps if s.index < step.index}
@@ -98,6 +112,15 @@ def render_step_pictures(product: Product, plan: Plan, views: Views | None, step
                             ("simulated step (animated; " +
                              ("FAILED: " + failure_caption(res) if failed else
                               "part and gripper as simulated") + ")")})
+    return tuple(entries)
+
+
+def draw_step_plots(step: Step, res: Any, folder: Path, grip_limit_N: float | None
+                    ) -> tuple[tuple[str, str], ...]:
+    """Draw the clamp-force and insertion plots of ``step`` (result ``res``, None: not
+    simulated) into ``folder``; (title, file name) of each, in the order they are shown."""
+    folder = Path(folder)
+    base = step_base_name(step.index)
     drawn: list[tuple[str, str]] = []
     if res is not None and res.record is not None and res.record.n_ticks > 1:
         rec = res.record
@@ -113,7 +136,7 @@ def render_step_pictures(product: Product, plan: Plan, views: Views | None, step
             plots.insertion_plot(rec, folder / name, target_depth_m=step.insertion_length_m,
                                  title=title)
             drawn.append(("insertion depth and contact force", name))
-    return StepPictures(res, tuple(entries), tuple(drawn))
+    return tuple(drawn)
 
 
 def grip_limit(product: Product, step: Step) -> float:

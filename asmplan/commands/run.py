@@ -94,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
     from ..knowledge.loader import load_product
     from ..pipeline import RunSettings, render_while_simulating, run_product, write_outputs
     from ..planner.settings import PlannerSettings
+    from ..report.picture_pool import picture_workers
     from ..sim.pose_error import PoseError
 
     path = Path(args.product) if args.product else bundled_example()
@@ -103,11 +104,21 @@ def run(args: argparse.Namespace) -> int:
                            cull=not args.no_cull, workers=args.jobs, pose_error=pose_error)
     progress = StageProgress(sys.stderr)
     with OutputFolder(args.out) as folder:  # checked and locked before any work
-        # the report's plan-only pictures are rendered while the steps simulate
-        early = None if args.no_report else render_while_simulating(folder)
-        result = run_product(product, settings, progress=progress, while_simulating=early,
-                             on_step_result=None if early is None else early.step_done)
-        write_outputs(result, folder, report=not args.no_report, progress=progress)
+        # the report's pictures are drawn while the run plans and the steps simulate, by
+        # picture processes forked now when there are cores for them (else in this one)
+        early = (None if args.no_report else
+                 render_while_simulating(folder, product, picture_workers(args.jobs)))
+        try:
+            result = run_product(product, settings, progress=progress, while_simulating=early,
+                                 on_step_result=None if early is None else early.step_done)
+            write_outputs(result, folder, report=not args.no_report, progress=progress)
+        except BaseException:
+            if early is not None:
+                early.close(now=True)
+            raise
+        finally:
+            if early is not None:
+                early.close()
     out = sys.stdout
     if result.plan is not None:
         print(summary_table(result), file=out)
