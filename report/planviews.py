@@ -8,6 +8,9 @@ pictures in that time (:func:`render_plan_views`, called by
 folder, and :func:`asmplan.report.html.write_report` then draws only what needs the simulation
 (sections at the simulated end, animations, force and depth plots). The pictures are the same
 bytes either way; the output folder is still swapped in whole at the end (outputs atomic).
+With a core to spare, ``asmplan run`` draws them in a picture process forked before it plans
+instead (:mod:`asmplan.report.picture_pool`); this module is the one-process way (``-j 1``,
+the library's default).
 
 Measured on the seed workstation at ``balanced`` (``asmplan run``'s last line, median of 3):
 1.5 s of the report's 2.7 s CPU is plan-only (the imports of trimesh, pyrender, matplotlib and
