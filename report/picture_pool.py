@@ -39,8 +39,10 @@ if TYPE_CHECKING:  # the renderer's modules (trimesh, ~0.4 s) are imported by th
     from .views import Views
 
 MAX_PICTURE_WORKERS = 1
-"""Picture processes: one. A second would import the renderer again (~0.5 s CPU, measured on
-the seed workstation) to draw what the run's own process and the first one share already."""
+"""Picture processes: one. A second would import the renderer and build the display meshes
+again (0.69 s of CPU in the first, measured on the seed workstation at ``balanced``), more than
+it would take off the end of the seed job (the last steps' sections and animations, 0.2-0.3 s
+of CPU each, which the run's process cannot draw)."""
 
 _PRODUCT: Product | None = None
 """The product a picture process draws (set by :func:`_start_worker`, in the worker)."""
