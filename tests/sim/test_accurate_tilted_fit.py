@@ -39,10 +39,10 @@ def test_accurate_at_half_its_step_jams_the_tilted_pin_at_whitneys_depth():
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason=(
-    "measured session 11: at ACCURATE's 1/4000 s the pin goes in (12.000 mm). The wedge's "
-    "contact normals lean 0.065 across the closing axis and the fit contact's solve has no "
-    "row for the pads' normal direction (the grip's normal share, open): the pin is pushed "
-    "into one pad, the other pad's last contact point slides off as the pin slips up the "
+    "measured session 11: at ACCURATE's 1/4000 s the pin goes in (12.000 mm). Only one side "
+    "of each wall contact pair carries, whose normals lean 0.065 across the closing axis, and "
+    "the fit contact's solve has no row for the pads' normal direction (the grip's normal "
+    "share, open): the pin is pushed into one pad, the other pad's last contact point slides off as the pin slips up the "
     "pads (0.87 mm), the loaded pad then takes 10 N against the 0.16 N clamp and the pin "
     "turns 0.45 deg in the grip to the bore's axis and goes in. At 1/8000 and 1/16000 s "
     "it jams at 1.117 / 1.116 mm"))
