@@ -85,7 +85,9 @@ case "$cmd" in
                 log "chromium not installed (needs root): the browser tests will be skipped"
             fi
         fi
-        exec "$venv/bin/python" -m pytest "$@" ;;
+        # One pytest worker per core (pytest-xdist; ASMPLAN_TEST_WORKERS=0 runs in one process),
+        # each test file on one worker (--dist loadfile: a file's module-scope fixtures built once).
+        exec "$venv/bin/python" -m pytest -n "${ASMPLAN_TEST_WORKERS:-auto}" --dist loadfile "$@" ;;
     bench)
         setup
         exec "$venv/bin/asmplan" bench "$@" ;;
