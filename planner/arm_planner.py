@@ -372,7 +372,7 @@ class ArmPlanner(ArmClearance):
         tt = np.concatenate(times)
         TT = np.array([self.arm.fk(q) for q in QT])
         if math.isfinite(max_tcp_speed_m_s) and len(TT) > 1:
-            from .trajectory import rotation_angle_rad
+            from .rotations import rotation_angle_rad
 
             dp = np.linalg.norm(np.diff(TT[:, :3, 3], axis=0), axis=1)
             rel = np.einsum("nji,njk->nik", TT[:-1, :3, :3], TT[1:, :3, :3])

@@ -17,8 +17,8 @@ from .errors import (
 )
 from .partdata import PartData
 from .plan import Grasp
+from .rotations import rotation_angle_rad
 from .scene import Scene
-from .trajectory import rotation_angle_rad
 
 
 class _Interpolator:

@@ -31,7 +31,7 @@ from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
 
-from .trajectory import quat_xyzw_from_matrix
+from .rotations import quat_xyzw_from_matrix
 
 PLANNERS: dict[str, Callable[[ob.SpaceInformation], ob.Planner]] = {
     "RRTConnect": og.RRTConnect,

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .trajectory import matrix_from_quat_xyzw, quat_xyzw_from_matrix, slerp_xyzw
+from .rotations import matrix_from_quat_xyzw, quat_xyzw_from_matrix, slerp_xyzw
 
 LEVEL_TOLERANCE_RAD = 1e-9
 """Via orientations within this of the levelled ones: the path is returned as it is."""

@@ -19,11 +19,11 @@ from .insertion import insertion_spec, unexcused
 from .layout import initial_layout
 from .partdata import PartData
 from .plan import Plan
+from .rotations import rotation_angle_rad
 from .scene import GRIPPER_CLOSED, GRIPPER_OPEN, Scene, colliding_pairs
 from .timing import (
     interpolate_poses,
 )
-from .trajectory import rotation_angle_rad
 
 
 @dataclass(frozen=True, eq=False)
