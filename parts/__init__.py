@@ -28,7 +28,7 @@ _EXPORTS = {
     "CollisionWorld": "collision", "Contact": "collision", "FclShapes": "collision",
     "Finding": "features", "T_part_feature": "features", "check_mates": "features",
     "FeatureSizing": "geometry", "GeometryError": "geometry", "GeometrySettings": "geometry",
-    "MassProperties": "geometry", "fitted_sizes": "geometry",
+    "MassProperties": "mass", "fitted_sizes": "geometry",
     "LEVELS": "lod", "bodies": "lod",
     "HoleClearance": "lod_measure", "LevelReport": "lod_measure", "convex_sides": "primitive_pieces",
     "LoadedMesh": "meshfile", "MeshFileError": "meshfile", "load_mesh_file": "meshfile",

@@ -29,11 +29,9 @@ from .geometry import (
     GeometryError,
     GeometrySettings,
     HoleShape,
-    MassProperties,
     PartShape,
     fitted_sizes,
     manifold_to_mesh,
-    mass_properties,
     part_shape,
     shape_solid,
     trimesh_to_manifold,
@@ -47,6 +45,7 @@ from .lod import (
     hole_sides,
 )
 from .lod_measure import LevelReport, measure, with_errors
+from .mass import MassProperties, mass_properties
 from .mesh import TriangleMesh
 from .meshfile import LoadedMesh, MeshFileError, load_mesh_file
 from .pieces import CollisionModel, ConvexPiece, LevelOfDetail
