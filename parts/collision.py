@@ -47,35 +47,22 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..knowledge.frames import rotation_between
+from .collision_geometry import (
+    BOX_SIGNS,
+    Contact,
+    along_local_axis,
+    piece_local_extent,
+    piece_points_world,
+    swept_aabb,
+)
 from .mesh import hull_faces
 from .pieces import CollisionModel, ConvexPiece
 
 FCL_SCALE = 1000.0  # FCL sees millimetres (see the module docstring)
 _K = FCL_SCALE
-_BOX_SIGNS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
 _REQ_BOOL = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
 _REQ_DEPTH = fcl.CollisionRequest(num_max_contacts=100_000, enable_contact=True)
 _REQ_DIST = fcl.DistanceRequest(enable_nearest_points=False)
-
-
-@dataclass(frozen=True, eq=False)
-class Contact:
-    """The deepest contact between two named objects.
-
-    Parameters
-    ----------
-    a, b : str
-        The two names (``a < b`` from :meth:`CollisionWorld.contacts`).
-    depth_m : float
-        Penetration depth, metres (> the tolerance that reported it).
-    point_m : (3,) float array
-        World position of the deepest contact point.
-    """
-
-    a: str
-    b: str
-    depth_m: float
-    point_m: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,19 +86,6 @@ def _convex(vertices: np.ndarray, faces: np.ndarray | None = None):
 def _tf(T: np.ndarray):
     """fcl.Transform of a (4, 4) pose in metres (FCL gets millimetres)."""
     return fcl.Transform(np.ascontiguousarray(T[:3, :3]), np.ascontiguousarray(T[:3, 3]) * _K)
-
-
-def _piece_local_extent(piece: ConvexPiece) -> np.ndarray:
-    """Corners (8, 3) of the piece's bounding box in the piece frame."""
-    if piece.kind == "box":
-        return _BOX_SIGNS * np.asarray(piece.half_extents_m)
-    if piece.kind == "cylinder":
-        return _BOX_SIGNS * np.array([piece.radius_m, piece.radius_m, 0.5 * piece.length_m])
-    if piece.kind == "sphere":
-        return _BOX_SIGNS * piece.radius_m
-    v = np.asarray(piece.vertices_m)
-    lo, hi = v.min(axis=0), v.max(axis=0)
-    return 0.5 * (lo + hi) + _BOX_SIGNS * 0.5 * (hi - lo)
 
 
 class FclShapes:
@@ -141,13 +115,13 @@ class FclShapes:
                 faces = hull_faces(vertices)
                 g = _convex(vertices, faces)
             T = np.array(pc.T_part_piece)
-            corners = _piece_local_extent(pc) @ T[:3, :3].T + T[:3, 3]
+            corners = piece_local_extent(pc) @ T[:3, :3].T + T[:3, 3]
             out.append(_Geom(g, pc, T, corners, bool(np.allclose(T, np.eye(4), atol=0, rtol=0)), faces))
         if model.mesh_vertices_m is not None and model.mesh_faces is not None:
             V = np.ascontiguousarray(model.mesh_vertices_m, dtype=float)
             bvh = _bvh(V, model.mesh_faces)
             lo, hi = V.min(axis=0), V.max(axis=0)
-            out.append(_Geom(bvh, None, np.eye(4), 0.5 * (lo + hi) + _BOX_SIGNS * 0.5 * (hi - lo), True))
+            out.append(_Geom(bvh, None, np.eye(4), 0.5 * (lo + hi) + BOX_SIGNS * 0.5 * (hi - lo), True))
         geoms = tuple(out)
         self._cache[id(model)] = (model, geoms)
         return geoms
@@ -512,7 +486,7 @@ class CollisionWorld:
         # swept boxes first; a piece's swept FCL object is built when a box first meets one
         piece_index = [i for i, g in enumerate(e.geoms) if g.piece is not None]
         pieces = [e.geoms[i] for i in piece_index]
-        swept_boxes = [_swept_aabb(g, e.T, delta) for g in pieces]
+        swept_boxes = [swept_aabb(g.corners_part, e.T, delta) for g in pieces]
         swept_objs: list[object] = [None] * len(pieces)
         lo = np.minimum(e.bbox[0], e.bbox[0] + delta)
         hi = np.maximum(e.bbox[1], e.bbox[1] + delta)
@@ -570,13 +544,6 @@ class CollisionWorld:
         return blockers
 
 
-def _swept_aabb(g: _Geom, T_world_part: np.ndarray, delta: np.ndarray) -> np.ndarray:
-    """World AABB (2, 3) of the volume swept by piece ``g`` under translation ``delta``."""
-    corners = g.corners_part @ T_world_part[:3, :3].T + T_world_part[:3, 3]
-    lo, hi = corners.min(axis=0), corners.max(axis=0)
-    return np.stack([np.minimum(lo, lo + delta), np.maximum(hi, hi + delta)])
-
-
 def _swept_geometry(g: _Geom, T_world_part: np.ndarray, delta: np.ndarray):
     """An FCL object (at its world pose) for the volume swept by piece ``g`` under
     translation ``delta`` (world)."""
@@ -594,9 +561,9 @@ def _swept_geometry(g: _Geom, T_world_part: np.ndarray, delta: np.ndarray):
         Tw[:3, :3] = rotation_between((0.0, 0.0, 1.0), u)
         Tw[:3, 3] = t + 0.5 * delta
         geom = fcl.Capsule(_K * pc.radius_m, _K * dist)
-    elif (pc.kind == "box" and _along_local_axis(R, u, dist) is not None) or (
-            pc.kind == "cylinder" and _along_local_axis(R, u, dist) == 2):
-        k = _along_local_axis(R, u, dist)
+    elif (pc.kind == "box" and along_local_axis(R, u, dist) is not None) or (
+            pc.kind == "cylinder" and along_local_axis(R, u, dist) == 2):
+        k = along_local_axis(R, u, dist)
         Tw = T.copy()
         Tw[:3, 3] = t + 0.5 * delta
         if pc.kind == "cylinder":
@@ -606,50 +573,11 @@ def _swept_geometry(g: _Geom, T_world_part: np.ndarray, delta: np.ndarray):
             size[k] += dist
             geom = fcl.Box(*(_K * size))
     else:
-        pts = _piece_points_world(pc, T)
+        pts = piece_points_world(pc, T)
         allp = np.concatenate([pts, pts + delta])
         Tw = np.eye(4)
         geom = _convex(allp)
     return fcl.CollisionObject(geom, _tf(Tw))
-
-
-def _along_local_axis(R: np.ndarray, u: np.ndarray, dist: float) -> int | None:
-    """Index of the local axis (columns of R) parallel to ``u`` closely enough that the
-    sideways drift over ``dist`` is below 1 nm, else None. Cylinders: only their z axis."""
-    for k in range(3):
-        s = float(np.linalg.norm(np.cross(R[:, k], u)))
-        if s * dist < 1e-9:
-            return k
-    return None
-
-
-def _piece_points_world(pc: ConvexPiece, T: np.ndarray, tol_m: float = 1e-6) -> np.ndarray:
-    """Points (n, 3) whose hull contains the piece (exactly for boxes and hulls; cylinders by
-    a circumscribed polygon within ``tol_m``)."""
-    if pc.kind == "box":
-        local = _BOX_SIGNS * pc.half_extents_m
-    elif pc.kind == "hull":
-        local = np.asarray(pc.vertices_m)
-    else:  # cylinder (spheres are capsules)
-        local = circumscribed_prism_points(pc.radius_m, pc.length_m, tol_m)
-    return local @ T[:3, :3].T + T[:3, 3]
-
-
-def circumscribed_prism_points(radius_m: float, length_m: float, tol_m: float = 1e-6
-                               ) -> np.ndarray:
-    """Vertices (2n, 3) of a regular prism circumscribing a z-axis cylinder centred on the
-    origin within ``tol_m`` (n = 8, 16, 32, ... up to 4096 sides)."""
-    n = 8
-    while radius_m * (1.0 / math.cos(math.pi / n) - 1.0) > tol_m and n < 4096:
-        n *= 2
-    ang = 2.0 * math.pi * np.arange(n) / n
-    R = radius_m / math.cos(math.pi / n)
-    ring = np.stack([R * np.cos(ang), R * np.sin(ang)], axis=1)
-    h = 0.5 * length_m
-    return np.concatenate([np.column_stack([ring, np.full(n, -h)]),
-                           np.column_stack([ring, np.full(n, h)])])
-
-
 
 
 def point_distances(vertices_m: np.ndarray, faces: np.ndarray, points_m: np.ndarray) -> np.ndarray:

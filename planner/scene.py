@@ -17,7 +17,8 @@ from ..parts.cell import (
     regrasp_fixture_model,
     table_model,
 )
-from ..parts.collision import CollisionWorld, Contact, FclShapes, circumscribed_prism_points
+from ..parts.collision import CollisionWorld, Contact, FclShapes
+from ..parts.collision_geometry import circumscribed_prism_points
 from ..parts.pieces import CollisionModel, ConvexPiece
 from .errors import (
     CollidingPair,
