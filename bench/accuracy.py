@@ -121,6 +121,9 @@ class AccuracyResult:
     peers: tuple[PeerRow, ...] = ()
     """The validation scenes in PyBullet (BALANCED) and MuJoCo side by side (:func:`peer_rows`;
     empty without MuJoCo or without BALANCED among the presets)."""
+    peer_matches: tuple[Any, ...] = ()
+    """The jam scenes at equal accuracy (:class:`bench.peer_ladder.PeerMatch`; with
+    :attr:`peers`)."""
 
 
 def _scenario_name(c: float) -> str:
@@ -200,9 +203,13 @@ def run_accuracy(presets: Sequence[str] = ("fast", "balanced", "accurate"),
             figures.extend(seed_profile_figures(name))
         say(f"accuracy {name}: {sum(f.wall_s for f in figures if f.preset == name):.1f} s")
     peer: tuple[PeerRow, ...] = ()
+    matches: tuple[Any, ...] = ()
     if with_peers and "balanced" in presets:
+        from .peer_ladder import peer_matches
+
         peer = tuple(peer_rows(preset("balanced"), log=say))
-    return AccuracyResult(tuple(figures), reference, REFERENCE_DT_S, convergence, peer)
+        matches = tuple(peer_matches(preset("balanced"), log=say))
+    return AccuracyResult(tuple(figures), reference, REFERENCE_DT_S, convergence, peer, matches)
 
 
 JAM_CLEARANCES_M: tuple[float, ...] = (0.01e-3, 0.05e-3, 0.1e-3, 0.5e-3)
@@ -266,12 +273,13 @@ def contact_figures(fid: Any) -> list[AccuracyFigure]:
                     f"simulated {got_x * 1e3:.3f} mm: the scene's geometry (peg, hole, depth "
                     f"measure) is exact; BALANCED's error above is its iterative solver"))
             if fid.name == "balanced" and peers.available():
+                t0 = time.perf_counter()
                 mj, mj_cost = peers.mujoco_jam_depth_m(fid.dt_s, c, t)
                 out.append(AccuracyFigure(
                     fid.name, f"MuJoCo peer (dt = {fid.dt_s:g} s): Whitney jam c = "
                     f"{c * 1e3:.2f} mm, t = {t_deg:g} deg", "peer_jam_depth_error_m", mj - ref,
-                    "m", mj_cost * JamScene().settle_s, False,
-                    f"simulated {mj * 1e3:.3f} mm; MuJoCo {mj_cost:.2f} wall s per simulated "
+                    "m", time.perf_counter() - t0, False,
+                    f"simulated {mj * 1e3:.3f} mm; MuJoCo {mj_cost:.2f} CPU s per simulated "
                     f"s (elliptic cone, impratio 10, solref 2 dt, noslip 20)"))
     for e, expect_in in ((0.5e-3, False), (0.12e-3, False), (0.08e-3, True), (0.02e-3, True)):
         t0 = time.perf_counter()
@@ -365,14 +373,14 @@ def seed_profile_figures(preset_name: str) -> list[AccuracyFigure]:
 
 
 PEER_FINE_STEP_DIVISOR = 10
-"""The jam scenes are also run in MuJoCo at BALANCED's time step over this (a converged peer
-at about PyBullet's cost per simulated second)."""
+"""The jam scenes are also run in MuJoCo at BALANCED's time step over this (0.02-0.09 mm deep
+there; the steps at which MuJoCo matches BALANCED's accuracy: :mod:`bench.peer_ladder`)."""
 
 
 @dataclass(frozen=True)
 class PeerRow:
     """One validation scene in both engines: the figure's error against its analytic answer
-    (same unit, ``unit``) and the wall seconds per simulated second of each engine."""
+    (same unit, ``unit``) and the CPU seconds per simulated second of each engine."""
 
     scene: str
     analytic: str
@@ -385,8 +393,8 @@ class PeerRow:
 
 def _bisect_force(slips: Callable[[float], tuple[bool, float, float]], analytic: float,
                   iterations: int) -> tuple[float, float, float]:
-    """Smallest holding force by bisection in [0.5, 2] x ``analytic``: (relative error, wall
-    s, simulated s) summed over the runs; ``slips(F)`` gives (slipped, wall, simulated)."""
+    """Smallest holding force by bisection in [0.5, 2] x ``analytic``: (relative error, CPU
+    s, simulated s) summed over the runs; ``slips(F)`` gives (slipped, CPU s, simulated s)."""
     lo, hi = 0.5 * analytic, 2.0 * analytic
     wall = sim = 0.0
     for _ in range(iterations):
@@ -434,16 +442,16 @@ def peer_rows(fid: Any, iterations: int = 8, log: Callable[[str], None] | None =
     for c, t_deg in ((0.1e-3, 5.0), (0.1e-3, 2.0), (0.1e-3, 0.5)):
         t = math.radians(t_deg)
         ref = whitney_jam_depth_m(c, t)
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         got = jam_depth_m(fid, c, t)
-        pb_cost = (time.perf_counter() - t0) / JamScene().settle_s
+        pb_cost = (time.process_time() - t0) / JamScene().settle_s
         mj, mj_cost = peers.mujoco_jam_depth_m(dt, c, t)
         rows.append(PeerRow(f"Whitney jam depth, c = {c * 1e3:g} mm, t = {t_deg:g} deg",
                             f"l* = {ref * 1e3:.3f} mm", "m", got - ref, mj - ref, pb_cost,
                             mj_cost))
         # MuJoCo's soft contacts penetrate ~20-50 um under the jam's ~5 N wedge at BALANCED's
-        # step whatever its solimp/solref (measured); at a tenth of the step it converges at
-        # about PyBullet's cost per simulated second: the like-for-like comparison
+        # step whatever its solimp/solref (measured); at a tenth of the step 0.02-0.09 mm
+        # remain; equal accuracy (finer steps): bench/peer_ladder.py
         fine_dt = dt / PEER_FINE_STEP_DIVISOR
         mj_fine, mj_fine_cost = peers.mujoco_jam_depth_m(fine_dt, c, t)
         rows.append(PeerRow(f"same, MuJoCo at dt = {fine_dt * 1e3:g} ms",
@@ -454,9 +462,9 @@ def peer_rows(fid: Any, iterations: int = 8, log: Callable[[str], None] | None =
     mism_pb = mism_mj = 0
     wall_pb = wall_mj = 0.0
     for e, expect_in in ((0.5e-3, False), (0.12e-3, False), (0.08e-3, True), (0.02e-3, True)):
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         record, _ = scene_pin_insertion(fid, 0.1e-3, lateral_offset_m=e)
-        wall_pb += (time.perf_counter() - t0) / float(record.t_s[-1])
+        wall_pb += (time.process_time() - t0) / float(record.t_s[-1])
         mism_pb += int((entered_depth_m(record) > 2e-3) != expect_in)
         got_mj, cost = peers.mujoco_capture_entered_m(dt, 0.1e-3, e)
         wall_mj += cost
@@ -472,10 +480,10 @@ def peer_rows(fid: Any, iterations: int = 8, log: Callable[[str], None] | None =
         analytic = part.mass_kg * (G + a) / (2 * mu)
 
         def pb_slips(F: float, a: float = a) -> tuple[bool, float, float]:
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             slipped = lift_slip_m(fid, part, F, a) >= 0.2e-3
             T = slip_trajectory(pose((0.0, 0.0, 0.025)), F, a)
-            return slipped, time.perf_counter() - t0, float(T.t_s[-1])
+            return slipped, time.process_time() - t0, float(T.t_s[-1])
 
         def mj_slips(F: float, a: float = a) -> tuple[bool, float, float]:
             T_tcp = pose((0.0, 0.0, part.size_m[2] / 2.0))
@@ -499,10 +507,10 @@ def peer_rows(fid: Any, iterations: int = 8, log: Callable[[str], None] | None =
         say(f"peers: slip a = {a}")
     # held drift
     for tilt in DRIFT_TILTS_RAD:
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         d_pb = held_drift_m(fid, tilt)
         traj = drift_trajectory(tilt)
-        pb_cost = (time.perf_counter() - t0) / float(traj.t_s[-1])
+        pb_cost = (time.process_time() - t0) / float(traj.t_s[-1])
         bp = BoxPart()
         ts, rel, mj_cost = peers.mujoco_gripper_run(
             dt, traj.t_s, traj.T_world_gripper, traj.clamp_force_N, bp.size_m, bp.mass_kg,
@@ -519,10 +527,10 @@ def peer_rows(fid: Any, iterations: int = 8, log: Callable[[str], None] | None =
     # figure from the guarded run (the step's verdict)
     hol = heavy_on_light(fid)
     v_pb = hol.max_cube_speed_mps
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     heavy_on_light(fid, guard=SceneGuard(max_speed_mps=1e9, cell_half_size_m=1e9,
                                          max_sink_m=1e9))
-    pb_cost = time.perf_counter() - t0
+    pb_cost = time.process_time() - t0
     v_mj, _sink_mj, mj_cost = peers.mujoco_heavy_on_light(dt)
     rows.append(PeerRow("100 kg block on four 1 g cubes: fastest cube"
                         + ("" if hol.failure is None else

@@ -128,13 +128,26 @@ def format_markdown(rep: BenchReport, plot_name: str | None = None) -> str:
                     "(BALANCED) and in MuJoCo (`asmplan.sim.peers`, extra `peers`) at the same "
                     "time step and its recommended stiff-contact settings (elliptic cone, "
                     "impratio 10, solref 2 dt, noslip 20), each against its analytic answer; "
-                    "cost = wall seconds per simulated second. Where PyBullet is behind, the "
-                    "last column says so (docs/physics.md explains each). The jam scenes are "
-                    "also run in MuJoCo at a tenth of the step ('same, MuJoCo at dt = ...'): "
-                    "its soft contacts sink 20-50 um under the jam's wedge forces at 1 ms "
-                    "whatever its solimp and solref (measured), and converge at 0.1 ms, the "
-                    "like-for-like comparison of cost.", "",
+                    "cost = CPU seconds per simulated second (process time: the machine is "
+                    "shared). Where PyBullet is behind, the last column says so "
+                    "(docs/physics.md explains each). The jam scenes are also run in MuJoCo "
+                    "at a tenth of the step ('same, MuJoCo at dt = ...'): its soft contacts "
+                    "sink 20-50 um under the jam's wedge forces at 1 ms whatever its solimp "
+                    "and solref (measured), 0.02-0.09 mm remain at 0.1 ms.", "",
                     format_peers(rep.accuracy.peers, "balanced")]
+        if rep.accuracy.peer_matches:
+            from .peer_ladder import format_peer_matches
+
+            out += ["### The jam scenes at equal accuracy", "",
+                    "`bench/peer_ladder.py`: MuJoCo at finer steps until it is within "
+                    "BALANCED's asserted jam bound (0.01 mm), with its convex collision "
+                    "tolerance at 1e-10 (at its default 1e-6 the 0.5 deg jam stays +0.09 mm "
+                    "deep at every step) and pushed 2.5 s (a finer step feeds the peg slower; "
+                    "MuJoCo's soft jam creeps deeper meanwhile, PyBullet's exact contact does "
+                    "not). Each cell: error against l*, CPU s per simulated s (PyBullet: median "
+                    "of 3 runs). The last column: MuJoCo's cost at the coarsest step within "
+                    "the bound over PyBullet's.", "",
+                    format_peer_matches(rep.accuracy.peer_matches, "balanced")]
     if rep.fits is not None:
         from .fits import format_fits
 

@@ -278,7 +278,7 @@ def format_read(r: ReadTiming) -> str:
 def format_peers(rows: Sequence[PeerRow], preset_name: str) -> str:
     """Markdown: both engines' errors and costs per scene, with who is ahead."""
     lines = [f"| scene | analytic | PyBullet {preset_name} error | MuJoCo error | PyBullet "
-             f"wall s / sim s | MuJoCo wall s / sim s | more accurate |",
+             f"CPU s / sim s | MuJoCo CPU s / sim s | more accurate |",
              "| --- | --- | ---: | ---: | ---: | ---: | --- |"]
     for r in rows:
         def v(x: float, r: PeerRow = r) -> str:

@@ -137,6 +137,10 @@ def run(args: argparse.Namespace) -> int:
         if rep.accuracy.peers:
             show("PyBullet and MuJoCo side by side", b.format_peers(rep.accuracy.peers,
                                                                      "balanced"))
+        if rep.accuracy.peer_matches:
+            ladder = importlib.import_module("bench.peer_ladder")
+            show("The jam scenes at equal accuracy",
+                 ladder.format_peer_matches(rep.accuracy.peer_matches, "balanced"))
     if "fits" in sections:
         fits = importlib.import_module("bench.fits")
         if args.quick:
