@@ -59,7 +59,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -67,6 +66,8 @@ from ..knowledge.frames import rotation_about
 from .bullet import BulletWorld
 from .contacts import Contacts
 from .fit_geometry import FitContact, FitContactModel
+from .fit_ldp import least_distance
+from .fit_memo import LastCall
 
 FRICTION_ROUNDS = 3
 """Alternations of the exact normal solve and the friction sweep per step."""
@@ -88,47 +89,6 @@ at most this along the bore's axis (its gaps do not change under that sliding), 
 
 MIN_MARGIN_M = 50e-6
 """Least search margin for contact points, m (plus the step's travel)."""
-
-
-def preload_solver() -> None:
-    """Import the solver of :func:`least_distance` now (scipy.optimize, 0.3-0.5 s of CPU):
-    before forking simulator workers, which then inherit it instead of each importing it."""
-    from scipy.optimize import nnls  # noqa: F401
-
-
-_nnls: Any = None
-"""``scipy.optimize.nnls``, imported by the first :func:`least_distance`."""
-
-
-def least_distance(G: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """min |y| s.t. G y >= h (Lawson and Hanson, LDP via NNLS).
-
-    Returns
-    -------
-    (y, lambda) or None
-        The solution and the multipliers (y = G^T lambda, lambda >= 0); None when infeasible.
-    """
-    global _nnls
-    if _nnls is None:  # here: a run without the fit contact imports no scipy
-        from scipy.optimize import nnls
-
-        _nnls = nnls
-    k, n = G.shape
-    # the array methods for np.all(h <= 0) and np.max(np.abs(h)): the same reductions (NaN
-    # included) without numpy's ~3 us of dispatch each
-    if k == 0 or h.max() <= 0.0:
-        return np.zeros(n), np.zeros(k)
-    scale = float(np.abs(h).max())
-    E = np.vstack([G.T, (h / scale)[None, :]])
-    f = np.zeros(n + 1)
-    f[n] = 1.0
-    u, _ = _nnls(E, f, maxiter=50 * (k + n))
-    r = E @ u - f
-    if abs(r[n]) < 1e-12:
-        return None
-    y = -r[:n] / r[n] * scale
-    lam = -u / r[n] * scale
-    return y, lam
 
 
 def _norm(x: np.ndarray) -> float:
@@ -221,6 +181,9 @@ class HeldFitContact:
         self._base: tuple[np.ndarray, FitContact | None, np.ndarray | None, float,
                           dict[int, np.ndarray] | None] | None = None
         self._grip: tuple[int, tuple[int, ...], float] | None = None
+        # the same every step while a detection is reused (asmplan.sim.fit_memo)
+        self._tangents_of = LastCall(_tangents)
+        self._base_rows: LastCall[tuple, np.ndarray] = LastCall(self._rows_at_base)
 
     def set_grip(self, gripper_body: int, pad_links: Sequence[int], pad_friction: float) -> None:
         """The gripper whose pads hold the body: their friction takes its share of each step's
@@ -334,14 +297,19 @@ class HeldFitContact:
             if base[1] is not None and self._reuse_ok(base[1].single_feature, dc, dth, margin):
                 found, owner = base[1], base[2]
                 assert owner is not None  # detected together with found
-                c0 = T0[:3, :3] @ self._com_link + T0[:3, 3]
-                J = self._rows(found.point_m, found.normal, c0)
+                J = self._base_rows(base)  # the rows at the detection's pose T0
                 gap = found.gap_m + J @ np.concatenate([dc, dth])
                 self.reused += 1
                 return FitContact(found.point_m, found.normal, gap), owner
         found, owner = self._detect(T_held, margin)
         self._base = (T_held.copy(), found, owner, margin, None)
         return found, owner
+
+    def _rows_at_base(self, base: tuple) -> np.ndarray:
+        """The rows of a detection ``base`` (:attr:`_base`) at its own pose."""
+        T0, found = base[0], base[1]
+        c0 = T0[:3, :3] @ self._com_link + T0[:3, 3]
+        return self._rows(found.point_m, found.normal, c0)
 
     def _clear(self, T_held: np.ndarray, margin: float, gap: float) -> bool:
         """True only if every contact :meth:`_detect` finds here has a gap above ``gap``
@@ -528,7 +496,7 @@ class HeldFitContact:
                         pads: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None):
         Jn = self._rows(found.point_m, found.normal, c)
         Gn = Jn @ Minv_sqrt
-        t1, t2 = _tangents(found.normal)
+        t1, t2 = self._tangents_of(found.normal)
         Jt1, Jt2 = self._rows(found.point_m, t1, c), self._rows(found.point_m, t2, c)
         Minv = Minv_sqrt @ Minv_sqrt
         k = found.count

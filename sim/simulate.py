@@ -49,8 +49,8 @@ from ..knowledge.model import Product
 from ..planner.plan import AssemblyState, Plan, Step, assembly_state, state_before
 from .bullet import BulletWorld
 from .execute import execute_step
-from .feature_contact import preload_solver
 from .fidelity import BALANCED, Fidelity
+from .fit_ldp import preload_solver
 from .fit_pairs import held_fit_contact
 from .gripper import CoupledGripper, GripperSpec
 from .judge import failed_outcome
