@@ -65,6 +65,7 @@ import numpy as np
 from ..knowledge.frames import rotation_about
 from .bullet import BulletWorld
 from .contacts import Contacts
+from .fit_forces import SolvedStep, solved_forces
 from .fit_geometry import FitContact, FitContactModel
 from .fit_ldp import least_distance
 from .fit_memo import LastCall
@@ -173,6 +174,7 @@ class HeldFitContact:
         self._found_margin = 0.0
         self._last = _empty_contacts()
         self._reaction: list[tuple[int, np.ndarray, np.ndarray]] = []
+        self._solved: SolvedStep | None = None  # forces not made yet (_forces)
         self.steps_solved = 0
         self.reused = 0
         self._axis: np.ndarray | None = None
@@ -210,6 +212,7 @@ class HeldFitContact:
                 self.world.set_collision_enabled(self.held_body, b, True)
             self.active = False
             self._last = _empty_contacts()
+            self._solved = None
 
     def held_pose_changed(self, T_world_held: np.ndarray) -> None:
         """Tell the model the caller moved the held body (e.g. a scene holding its tilt)."""
@@ -223,6 +226,8 @@ class HeldFitContact:
             return
         # a partner may be switched between static and dynamic (asmplan.sim.partner_hold)
         self._dynamic = {b: not self.world.is_static(b) for b in self._partners}
+        if any(self._dynamic.values()):
+            self._forces()
         for body, force, point in self._reaction:
             if self._dynamic[body]:
                 self.world.apply_force(body, -1, force.tolist(), point.tolist())
@@ -334,7 +339,7 @@ class HeldFitContact:
         if not self._clear(T_step, MIN_MARGIN_M, 0.0):
             return False
         self._base = (T_prev.copy(), None, None, margin, dict(self._T_partner))
-        self._reaction = []
+        self._reaction, self._solved = [], None
         self._last = _empty_contacts()
         self._T_prev = T_step
         self._found = None
@@ -370,7 +375,7 @@ class HeldFitContact:
             self._found = self._detect_near(T_prev, margin)
             self._found_margin = margin
         found, owner = self._found
-        self._reaction = []
+        self._reaction, self._solved = [], None
         if found.count == 0:
             self._last = _empty_contacts()
             self._T_prev = world.pose(self.held_body)
@@ -413,36 +418,24 @@ class HeldFitContact:
         self._T_prev = T_new
         self._found, self._found_margin = after, new_margin
         self.steps_solved += 1
-        # this step's impulses as forces on the held body
-        n = found.normal
-        f_n = lam_n / dt
-        f_t = (p_t[:, :1] * t1 + p_t[:, 1:] * t2) / dt
-        partner_of = np.array([self.pairs[i].partner for i in owner], dtype=int)
-        self._last = Contacts(
-            body_b=partner_of,
-            link_a=np.full(found.count, -1, dtype=int),
-            link_b=np.full(found.count, -1, dtype=int),
-            position_on_a_m=found.point_m.copy(),
-            position_on_b_m=found.point_m.copy(),
-            normal_on_b=n.copy(),
-            distance_m=found.gap_m.copy(),
-            normal_force_N=f_n,
-            friction_on_a_N=f_t,
-        )
-        for b in self._partners:
-            sel = (partner_of == b) & (f_n > 0)
-            if np.any(sel):
-                total = np.sum(f_n[sel, None] * n[sel] + f_t[sel], axis=0)
-                weights = f_n[sel] / float(np.sum(f_n[sel]))
-                point = np.sum(weights[:, None] * found.point_m[sel], axis=0)
-                self._reaction.append((b, -total, point))
+        # this step's impulses as forces: made when asked for (sim/fit_forces.py)
+        self._solved = SolvedStep(found, owner, lam_n, p_t, t1, t2, dt)
+
+    def _forces(self) -> None:
+        """:attr:`_last` and :attr:`_reaction` from the last solve, if not made yet."""
+        if self._solved is not None:
+            self._last, self._reaction = solved_forces(
+                self._solved, [p.partner for p in self.pairs], self._partners)
+            self._solved = None
 
     def reaction_on(self, body: int) -> list[tuple[np.ndarray, np.ndarray]]:
         """The last step's reaction on a partner: (force N (3,), point m (3,)) pairs."""
+        self._forces()
         return [(force, point) for b, force, point in self._reaction if b == body]
 
     def contacts(self) -> Contacts:
         """The pin's contact points with the bore after the last step (with their forces)."""
+        self._forces()
         return self._last
 
     # ------------------------------------------------------------------ internals
