@@ -23,6 +23,7 @@ import json
 import os
 import shutil
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -403,16 +404,32 @@ class OutputFolder:
             _release_lock(fd, self.target.parent / f".{self.target.name}.lock")
 
 
+LOCK_WAIT_S = 2.0
+"""How long a run waits for an output folder's lock before it says another process writes
+there, s. A run killed with SIGKILL leaves its worker and picture processes holding the lock
+until the kernel has delivered their parent-death signal and they have exited: measured 10-60
+ms after the killed run was reaped on 2 loaded cores (more under heavier load); a run that
+really writes there holds it for seconds."""
+
+
 def _acquire_lock(user_path: Path, lock_path: Path) -> int:
-    """Take an exclusive lock on ``lock_path`` without waiting; the file is ours alone."""
+    """Take an exclusive lock on ``lock_path``, waiting up to :data:`LOCK_WAIT_S` for a holder
+    that is exiting; the file is ours alone."""
+    deadline = time.monotonic() + LOCK_WAIT_S
     for _ in range(10):
         fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o666 & ~_UMASK)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            os.close(fd)
-            raise OutputPathError(user_path, "another asmplan process is writing this output "
-                                             "folder now; wait for it or name another folder") from None
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except OSError:
+                if time.monotonic() < deadline:
+                    time.sleep(0.02)
+                    continue
+                os.close(fd)
+                raise OutputPathError(user_path, "another asmplan process is writing this "
+                                                 "output folder now; wait for it or name "
+                                                 "another folder") from None
         try:  # the holder before us may have unlinked the file we opened: then retry
             if os.fstat(fd).st_ino == os.stat(lock_path).st_ino:
                 return fd

@@ -122,6 +122,34 @@ def test_an_empty_folder_may_be_used_and_nothing_is_left_beside_it(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == [OUTPUT_MARKER, "x.json"]
 
 
+def test_a_lock_held_by_an_exiting_process_is_waited_for(tmp_path):
+    """A run killed with SIGKILL leaves its worker processes holding the folder's lock for the
+    few ms until their parent-death signal has ended them: the next run waits for that (up to
+    fileio.LOCK_WAIT_S), and is refused only when the holder keeps it."""
+    import fcntl
+    import threading
+    import time
+
+    from asmplan.fileio import LOCK_WAIT_S
+
+    out = tmp_path / "out"
+    fd = os.open(tmp_path / ".out.lock", os.O_RDWR | os.O_CREAT)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # an exiting process's lock
+    threading.Timer(0.3, os.close, (fd,)).start()
+    t0 = time.monotonic()
+    with OutputFolder(out) as folder:
+        waited = time.monotonic() - t0
+        folder.commit()
+    assert 0.3 <= waited < LOCK_WAIT_S
+    held = os.open(tmp_path / ".out.lock", os.O_RDWR | os.O_CREAT)
+    fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)  # kept: refused after the wait
+    try:
+        with pytest.raises(OutputPathError, match="another asmplan process is writing"):
+            OutputFolder(out)
+    finally:
+        os.close(held)
+
+
 def test_a_second_writer_of_the_same_folder_is_refused(tmp_path):
     out = tmp_path / "out"
     with OutputFolder(out) as first:
