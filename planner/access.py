@@ -73,7 +73,14 @@ class AccessSettings:
     patience : int
         Once a grasp is kept, stop after this many candidates in a row that give no new
         minimal set (neighbouring offsets of one grasp family meet the same parts; the
-        candidates after them are ranked worse).
+        candidates after them are ranked worse). 96: with 3000 samples the drawer of
+        tests/fixtures/arm/drawer_reach.yaml has 30 candidates of two families (centred
+        over its top, every depth; from its side) meeting the cover before the first that
+        clears it (its 5 mm top edge pinched 20 mm towards its front, 57 N of 60 N), the
+        89th; with 1000 samples most of them had too few samples to count and 24 reached it.
+    arm_patience : int
+        With ``arm_reach``, once no grasp is kept, the screening stops after this many
+        candidates in a row beyond the arm.
     grasp_standoff_m : float
         Retreat of the open gripper after release, m (the motion planner's
         ``grasp_standoff_m``).
@@ -82,9 +89,12 @@ class AccessSettings:
     contact_tolerance_m : float
         Penetration that counts as touching, m (``PlannerSettings``).
     surface_samples : int
-        Surface samples per part for the screened grasps (the motion planner's
-        ``surface_samples`` is 3000; a screening needs the grasp families, not their exact
-        contact areas).
+        Surface samples per part for the screened grasps: the motion planner's 3000, so that
+        the screening finds the grasps the planner finds (with 1000, 38 mm^2 per sample on
+        the drawer of tests/fixtures/arm/drawer_front.yaml, a pad over the 5 mm top edge of
+        its side, 100 mm^2, has fewer than the 3 samples a contact needs: the one grasp the
+        arm can reach there was missed and the step screened unreachable). Small contact
+        patches are measured on the mesh either way (:mod:`asmplan.planner.grasp_patch`).
     sample_step_m : float
         Spacing of the checked poses along the insertion and the retreat, m (a screening
         step: the motion planner proves the chosen motion exactly).
@@ -92,7 +102,7 @@ class AccessSettings:
         With an arm in the cell (``resources.robot``), keep only grasps whose pick, lifted,
         pre-insertion and seated TCP poses the arm can take (reach and joint limits,
         :mod:`asmplan.planner.arm_reach`). Once no grasp is kept, the screening stops after
-        ``patience`` candidates in a row beyond the arm.
+        ``arm_patience`` candidates in a row beyond the arm.
     arm_collisions : bool
         With ``arm_reach``, also check the arm's links at the pre-insertion and seated poses
         against the table and the other parts (:mod:`asmplan.planner.arm_reach_collisions`):
@@ -102,8 +112,9 @@ class AccessSettings:
 
     max_grasps: int = 24
     max_candidates: int = 200
-    patience: int = 24
-    surface_samples: int = 1000
+    patience: int = 96
+    arm_patience: int = 24
+    surface_samples: int = 3000
     grasp_standoff_m: float = 0.03
     finger_clearance_m: float = 3e-3
     contact_tolerance_m: float = 2e-5
@@ -112,7 +123,8 @@ class AccessSettings:
     arm_collisions: bool = True
 
     def __post_init__(self) -> None:
-        for name in ("max_grasps", "max_candidates", "patience", "surface_samples"):
+        for name in ("max_grasps", "max_candidates", "patience", "arm_patience",
+                     "surface_samples"):
             v = getattr(self, name)
             if not (isinstance(v, int) and v >= 1):
                 raise ValueError(f"AccessSettings.{name}: expected an integer >= 1, found {v!r}")
@@ -320,7 +332,7 @@ class GripperAccess:
         for g in itertools.islice(cands, s.max_candidates):
             if len(sets) >= s.max_grasps or stale >= s.patience:
                 break
-            if not sets and arm_run >= s.patience:
+            if not sets and arm_run >= s.arm_patience:
                 break  # candidate after candidate beyond the arm, none kept: a screening stops
             examined += 1
             stale += 1 if sets else 0

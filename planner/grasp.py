@@ -8,8 +8,9 @@ search works on the part's surface, sampled with normals (any mesh: boxes, cylin
 composites with holes, imported meshes):
 
 1. closing axes: the knowledge hint's ``closing_axis``; the normals of large opposite planar
-   faces; the part frame's axes and the principal axes of the surface; for cylinders, the
-   axis and radial directions every 45 deg;
+   faces; the part frame's axes and the principal axes of the surface (exact, from the mesh;
+   those with equal second moments, a turned part's radial ones, left out:
+   :func:`principal_axes`); for cylinders, the axis and radial directions every 45 deg;
 2. approach axes: perpendicular to the closing axis every 45 deg, starting from "down" at the
    start pose (and the hint's ``approach_axis``);
 3. offsets of the pad centre along the approach axis (steps of a sixth of the finger length)
@@ -57,24 +58,22 @@ from typing import Any
 
 import numpy as np
 
-from ..knowledge.model import GraspHint, Gripper, Groove
+from ..knowledge.model import GraspHint, Gripper
 from ..parts.mesh import TriangleMesh, sample_surface
 from .errors import CollidingPair
-from .grasp_groove import groove_seat
 from .grasp_hold import (
-    ContactPatch,
     GripLoad,
+    HoldInputs,
     HoldRejections,
     hold_lower_bound,
     hold_requirement,
     hold_term,
 )
+from .grasp_pads import CONTACT_BAND_M as CONTACT_BAND_M
+from .grasp_pads import Frame, Strip, evaluate
+from .grasp_patch import FrameTriangles
 from .plan import Grasp
 
-CONTACT_BAND_M = 3e-4
-"""Surface points within this distance of a pad's plane count as touching it, m."""
-
-_MIN_CONTACT_POINTS = 3
 _MAX_OFFSETS = 41  # pad centres per axis and candidate frame (the whole part, every depth)
 _END_STEP_M = 1e-3  # finest step of a finger covering only an end of a narrow part
 _EDGE_INSET_M = 1e-3  # a finger sticking out on one side keeps its other edge this far in
@@ -103,6 +102,9 @@ class GraspSurface:
         The first ``n_area`` points are area samples (face normals); the rest are mesh
         vertices, whose averaged normals on edges say nothing about the faces a pad touches
         (the friction-cone test uses the area samples where a pad has enough of them).
+    mesh : TriangleMesh, optional
+        The part's mesh (part frame): a pad's contact patch with few samples is measured on
+        it (:mod:`asmplan.planner.grasp_patch`); without it, on the samples.
     """
 
     points_m: np.ndarray
@@ -111,6 +113,7 @@ class GraspSurface:
     com_m: np.ndarray
     kind: str = "mesh"
     n_area: int | None = None
+    mesh: TriangleMesh | None = field(default=None, repr=False)
     axes_cache: dict[float, list[np.ndarray]] = field(default_factory=dict, repr=False)
 
     @classmethod
@@ -130,7 +133,7 @@ class GraspSurface:
         normals = np.vstack([normals, vn])
         return cls(points_m=np.asarray(pts, float), normals=np.asarray(normals, float),
                    area_per_point_m2=float(mesh.area) / float(n_samples),
-                   com_m=np.asarray(com_m, float), kind=kind, n_area=int(n_samples))
+                   com_m=np.asarray(com_m, float), kind=kind, n_area=int(n_samples), mesh=mesh)
 
 
 def _clip(x: float, lo: float, hi: float) -> float:
@@ -196,9 +199,7 @@ def _geometric_axes(surface: GraspSurface, min_area_fraction: float) -> list[np.
             cands.append(_unit(keys[i].astype(float)))
     if surface.kind != "cylinder":  # the part's own axes, then principal axes of its surface
         cands.extend(np.eye(3))
-        pts = surface.points_m - surface.points_m.mean(axis=0)
-        _, vecs = np.linalg.eigh(pts.T @ pts)
-        cands.extend(_unit(vecs[:, k]) for k in (2, 1, 0))
+        cands.extend(principal_axes(surface))
     else:  # radial directions and the axis
         for k in range(4):
             a = k * _ANGLE_STEP_RAD
@@ -206,6 +207,39 @@ def _geometric_axes(surface: GraspSurface, min_area_fraction: float) -> list[np.
         cands.append(np.array([0.0, 0.0, 1.0]))
     cache[min_area_fraction] = cands
     return cands
+
+
+PRINCIPAL_GAP = 1e-6
+"""Relative difference of two second moments of the surface below which their principal
+axes are taken as undetermined (a turned part's two radial ones)."""
+
+
+def principal_axes(surface: GraspSurface) -> list[np.ndarray]:
+    """The principal axes of the part's surface (unit, part frame), largest second moment
+    first, each whose second moment equals another's (within ``PRINCIPAL_GAP``) left out.
+
+    With the mesh, the area's second moments are exact (per triangle ``A / 12 (sum p_i
+    p_i^T + s s^T)``, ``s`` the sum of its corners); without it, those of the samples. The
+    samples' axes scatter with the sampling: with 3000 samples the gearbox bearing's radial
+    ones came out 0.26 deg out of its flange plane (the approach 0.26 deg off its axis),
+    the drawer's 3.6 deg off its own axes, and a turned part's two radial axes are any pair
+    (equal moments): the part's own axes, listed first, already give them."""
+    mesh = surface.mesh
+    if mesh is None:
+        pts = surface.points_m - surface.points_m.mean(axis=0)
+        _, vecs = np.linalg.eigh(pts.T @ pts)
+        return [_unit(vecs[:, k]) for k in (2, 1, 0)]
+    tri = mesh.triangles
+    area = mesh.area_faces
+    s = tri.sum(axis=1)
+    total = float(area.sum())
+    centroid = (area[:, None] * s).sum(axis=0) / (3.0 * total)
+    second = (np.einsum("f,fki,fkj->ij", area, tri, tri)
+              + np.einsum("f,fi,fj->ij", area, s, s)) / 12.0
+    w, vecs = np.linalg.eigh(second - total * np.outer(centroid, centroid))
+    scale = max(float(np.abs(w).max()), 1e-300)
+    return [_unit(vecs[:, k]) for k in (2, 1, 0)
+            if all(abs(float(w[k] - w[j])) > PRINCIPAL_GAP * scale for j in range(3) if j != k)]
 
 
 # Complexity above C (radon): a lazy best-first generator: hint, faces, finger placements and the lead
@@ -433,14 +467,17 @@ def iter_grasps(
         us_, vs_, knowns, lbl = cu.tolist(), cv.tolist(), knowns_a.tolist(), lbs.tolist()
         order = np.lexsort((np.arange(len(lbs)), lbs)).tolist()
     heap: list[tuple[float, int, tuple[Any, ...], bool]] = []
-    strips: dict[tuple[int, float], tuple[_Strip, _Strip]] = {}
-    sorted_frames: dict[int, _Frame] = {}
+    strips: dict[tuple[int, float], tuple[Strip, Strip]] = {}
+    sorted_frames: dict[int, Frame] = {}
+    frame_tris: dict[int, FrameTriangles] = {}
+    mesh = surface.mesh
 
     def make(item: tuple[float, int, tuple[Any, ...], bool]) -> Grasp:
-        cost, _, (T, width, open_width, area, offset, req), hinted = item
+        cost, _, (T, width, open_width, area, offset, req, inputs), hinted = item
         return Grasp(part, T, width, open_width, area, offset,
                      "hint" if hinted else "antipodal", cost, req.torsion_radius_m,
-                     req.lever_m, req.required_N if load is not None else None)
+                     req.lever_m, req.required_N if load is not None else None,
+                     inputs if load is not None else None)
 
     for serial in order:  # lazily: the first few are all most steps need
         lb, fi, u, v = lbl[serial], fis[serial], us_[serial], vs_[serial]
@@ -450,25 +487,29 @@ def iter_grasps(
         x, c, a, XYZ, _ = frames[fi]
         if (fi, u) not in strips:
             if fi not in sorted_frames:
-                sorted_frames[fi] = _Frame(XYZ, N, surface.n_area)
+                sorted_frames[fi] = Frame(XYZ, N, surface.n_area)
             f = sorted_frames[fi]
-            strips[fi, u] = (_Strip(f, u, W / 2), _Strip(f, u, palm[0] / 2))
+            strips[fi, u] = (Strip(f, u, W / 2), Strip(f, u, palm[0] / 2))
         pad, palm_strip = strips[fi, u]
-        g = _evaluate(pad, palm_strip, x, c, a, com, u, v, L, palm, cos_cone, max_width,
+        if mesh is not None and fi not in frame_tris:
+            frame_tris[fi] = FrameTriangles.of(mesh.vertices, mesh.faces, mesh.face_normals,
+                                               com, x, c, a)
+        g = evaluate(pad, palm_strip, x, c, a, com, u, v, L, palm, cos_cone, max_width,
                       float(gripper.stroke_m), finger_clearance_m, surface.area_per_point_m2,
-                      hint, gripper.finger_groove)
+                      hint, gripper.finger_groove, frame_tris.get(fi), W / 2)
         if g is None:
             continue
         top, bottom = g[5]
         com_g = np.array([-u, -g[6], -v])
-        req = hold_requirement(top, bottom, com_g, mass, accel, mu, sf,
-                               tuple(np.array([d @ x, d @ c, d @ a]) for d in downs))
+        downs_g = tuple(np.array([d @ x, d @ c, d @ a]) for d in downs)
+        req = hold_requirement(top, bottom, com_g, mass, accel, mu, sf, downs_g, g[1])
         if load is not None and req.required_N > load.force_limit_N:
             if hold_rejections is not None:
                 hold_rejections.add(req)
             continue
         cost = known + hold_term(req.slide_N, req.required_N)
-        heapq.heappush(heap, (cost, serial, (*g[:5], req), is_hint))
+        inputs = HoldInputs(top, bottom, com_g, mass, accel, mu, sf, g[1], downs_g, g[0])
+        heapq.heappush(heap, (cost, serial, (*g[:5], req, inputs), is_hint))
     while heap:
         yield make(heapq.heappop(heap))
 
@@ -487,116 +528,6 @@ def grasp_candidates(part: str, surface: GraspSurface, gripper: Gripper,
                      **kwargs: Any) -> list[Grasp]:
     """The first ``limit`` (default all) grasps of :func:`iter_grasps`, ranked."""
     return list(itertools.islice(iter_grasps(part, surface, gripper, hint, **kwargs), limit))
-
-
-class _Strip:
-    """Surface points of one candidate frame within a band of gripper x, sorted by z."""
-
-    __slots__ = ("N", "S", "X", "Y", "Z")
-
-    def __init__(self, frame: _Frame, u: float, half_width: float) -> None:
-        keep = np.abs(frame.X - u) <= half_width
-        self.X = frame.X[keep]
-        self.Z = frame.Z[keep]
-        self.Y = frame.Y[keep]
-        self.N = frame.N[keep]
-        self.S = frame.S[keep]
-
-    def window(self, z_lo: float, z_hi: float) -> slice:
-        return slice(int(np.searchsorted(self.Z, z_lo, side="left")),
-                     int(np.searchsorted(self.Z, z_hi, side="right")))
-
-
-class _Frame:
-    """Surface points projected on one candidate gripper frame, sorted by z (approach)."""
-
-    __slots__ = ("N", "S", "X", "Y", "Z")
-
-    def __init__(self, XYZ: np.ndarray, N: np.ndarray, n_area: int | None = None) -> None:
-        order = np.argsort(XYZ[2], kind="stable")
-        self.X, self.Y, self.Z = XYZ[0, order], XYZ[1, order], XYZ[2, order]
-        self.N = N[order]
-        # area samples (True) apart from mesh vertices (False); all area samples if unknown
-        self.S = (order < n_area) if n_area is not None else np.ones(order.size, bool)
-
-
-def _evaluate(pad: _Strip, palm_strip: _Strip, x: np.ndarray, c: np.ndarray,
-              a: np.ndarray, com: np.ndarray, u: float, v: float, L: float,
-              palm: np.ndarray, cos_cone: float, max_width: float, stroke: float,
-              clearance: float, area_per_point: float, hint: GraspHint | None,
-              groove: Groove | None = None
-              ) -> tuple[np.ndarray, float, float, float, float,
-                         tuple[ContactPatch, ContactPatch], float] | None:
-    """(T_part_gripper, width, open width, contact area, CoM offset, the two pads' contact
-    patches (+y, -y), y of the pads' midplane in the frame's coordinates) or None.
-
-    With grooved pads (``groove``), a part that seats in both grooves (:func:`groove_seat`)
-    is held on the four flanks; one that touches the lands only is held as by flat pads (the
-    flat patches about the pad's centre line under-count the torsion of the two strips
-    either side of the groove); one that would seat off the pads' centre line is rejected
-    (the grooves centre it, away from the planned pose)."""
-    w = pad.window(v - L / 2, v + L / 2)
-    yin = pad.Y[w]
-    if yin.size == 0:
-        return None
-    y_max, y_min = float(yin.max()), float(yin.min())
-    width = y_max - y_min
-    if width <= 1e-4 or width > max_width:
-        return None
-    top = yin >= y_max - CONTACT_BAND_M
-    bot = yin <= y_min + CONTACT_BAND_M
-    if top.sum() < _MIN_CONTACT_POINTS or bot.sum() < _MIN_CONTACT_POINTS:
-        return None
-    # the contact normals must lie inside the friction cone about the closing direction;
-    # judged on the area samples where a pad has enough of them (a vertex on an edge carries
-    # the average of its faces' normals: 45 deg on the rim of a cylinder a pad just overlaps)
-    n_in, s_in = pad.N[w], pad.S[w]
-    if (top & s_in).sum() >= _MIN_CONTACT_POINTS and (bot & s_in).sum() >= _MIN_CONTACT_POINTS:
-        top, bot = top & s_in, bot & s_in
-    top_ok = (n_in[top] @ c) >= cos_cone
-    bot_ok = (n_in[bot] @ -c) >= cos_cone
-    if top_ok.mean() < 0.5 or bot_ok.mean() < 0.5:
-        return None
-    area = min(float(top_ok.sum()), float(bot_ok.sum())) * area_per_point
-    y_mid = 0.5 * (y_max + y_min)
-    # palm box behind the finger roots: z in [v - L/2 - palm_z, v - L/2), centred on the TCP
-    z_root = v - L / 2
-    pw = palm_strip.window(z_root - palm[2], z_root)
-    yp = palm_strip.Y[pw]
-    if np.any((np.abs(yp - y_mid) <= palm[1] / 2) & (palm_strip.Z[pw] < z_root)):
-        return None
-    def placed() -> tuple[np.ndarray, float]:
-        """The grasp's pose (x across, c closing, a along) and the fingers' open width."""
-        T = np.eye(4)
-        T[:3, 0], T[:3, 1], T[:3, 2] = x, c, a
-        T[:3, 3] = com + u * x + y_mid * c + v * a
-        open_width = min(stroke, width + 2.0 * clearance)
-        if hint is not None and hint.width_m is not None and width <= hint.width_m <= stroke:
-            open_width = float(hint.width_m)
-        return T, open_width
-
-    xin, zin = pad.X[w], pad.Z[w]
-    if groove is not None:
-        seat = groove_seat(xin - u, yin - y_mid, zin - v, n_in @ x, n_in @ c, groove,
-                           cos_cone, area_per_point)
-        if seat is False:
-            return None
-        if seat is not None:
-            T, open_width = placed()
-            area = min(p.area_m2 for p in seat)
-            return T, width, open_width, area, math.hypot(u, v), seat, y_mid
-    ti, bi = np.flatnonzero(top)[top_ok], np.flatnonzero(bot)[bot_ok]
-    nt, nb = n_in[ti], n_in[bi]
-    patches = (ContactPatch.rigid(np.stack([xin[ti] - u, zin[ti] - v], axis=1),
-                                  y_max - yin[ti], float(ti.size) * area_per_point,
-                                  CONTACT_BAND_M,
-                                  np.stack([nt @ x, nt @ a], axis=1) / (nt @ c)[:, None]),
-               ContactPatch.rigid(np.stack([xin[bi] - u, zin[bi] - v], axis=1),
-                                  yin[bi] - y_min, float(bi.size) * area_per_point,
-                                  CONTACT_BAND_M,
-                                  np.stack([nb @ x, nb @ a], axis=1) / -(nb @ c)[:, None]))
-    T, open_width = placed()
-    return T, width, open_width, area, math.hypot(u, v), patches, y_mid
 
 
 class Rejections:

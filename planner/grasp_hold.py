@@ -3,9 +3,11 @@
 A parallel gripper squeezes the part with a force ``F`` per finger. Each pad touches the part
 over a contact patch (the surface points within the contact band, in the pad plane: gripper
 x and z). The part's weight and its inertial load while carried, ``m (g d + a e)`` (``d`` the
-direction of gravity at the pick and at the insertion pose, ``e`` any direction, ``a`` the
-largest planned acceleration), act at the centre of mass. Taking moments about the contact
-centre (the midpoint of the two patch centroids), the grip must carry:
+direction of gravity at the pick and at the insertion pose, and once the transfer is planned
+along it too (:class:`HoldInputs`, :mod:`asmplan.planner.transfer_hold`), ``e`` any
+direction, ``a`` the largest planned acceleration), act at the centre of mass. Taking
+moments about the contact centre (the midpoint of the two patch centroids), the grip must
+carry:
 
 - the load in the pad plane, ``f_t``, and the moment about the closing axis, ``M_c``, by
   friction. Under uniform pressure a patch resists at most ``mu F`` of force and
@@ -15,12 +17,17 @@ centre (the midpoint of the two patch centroids), the grip must carry:
   the friction; their combination uses the ellipsoidal limit surface (Goyal, Ruina and
   Papadopoulos 1991; Howe and Cutkosky 1996), two pads:
   ``F >= sqrt(f_t^2 + (M_c / rho)^2) / (2 mu)``, ``rho`` the mean of the two pads';
-- the moment about the pad plane's axes (tipping about the contact line) by moving the two
-  pads' centres of pressure apart within their patches: the normal forces ``F`` and ``-F``
-  then make a couple ``F s``, ``s`` their distance across the moment's axis, at most
-  ``max(P_2 . t) - min(P_1 . t)`` along the needed direction ``t``:
-  ``F >= |M_in| / s_max`` (no friction used; the friction couple of the two pads across the
-  grip width is not counted, which is conservative).
+- the moment about the pad plane's axes (tipping about the contact line) either by moving
+  the two pads' centres of pressure apart within their patches: the normal forces ``F`` and
+  ``-F`` then make a couple ``F s``, ``s`` their distance across the moment's axis, at most
+  ``max(P_2 . t) - min(P_1 . t)`` along the needed direction ``t``: ``F >= |M_in| / s_max``
+  (no friction used); or by the pads' friction forces ``f_1``, ``f_2`` in opposite
+  directions, a couple across the grip width ``w``: ``f_1 - f_2 = 2 M_in x y / w``, with
+  ``f_1 + f_2`` carrying the load in the pad plane and each pad within its limit surface
+  (``sqrt((|f_i| / mu)^2 + (M_c / (2 mu rho))^2) <= F`` for two like pads). A line contact
+  (no extent across it, ``s_max = 0``) still holds a moment about the line so: a cylinder
+  pinched across its diameter does not roll about its axis while both pads grip it. Per load
+  case the cheaper of the two mechanisms is taken (not their sum: conservative).
 
 The required force is the largest over the load cases, times the process's safety factor.
 A grasp whose required force exceeds the gripper's (or the part's) force limit cannot hold the
@@ -36,6 +43,8 @@ from functools import cached_property
 import numpy as np
 
 G_M_S2 = 9.81
+
+_NORMAL_EQUATIONS_ABOVE = 1000  # samples above which the patch's quadratic fit solves them
 
 # directions of the inertial load: the six axes, the eight diagonals and none
 _CUBE = np.array([[i, j, k] for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)], float)
@@ -174,7 +183,11 @@ class ContactPatch:
             return cls(_collapse_across(p, d, band_m), area_m2, slope)
         x, z = p[:, 0], p[:, 1]
         A = np.stack([np.ones_like(x), x, z, 0.5 * x * x, x * z, 0.5 * z * z], axis=1)
-        coef, *_ = np.linalg.lstsq(A, d, rcond=None)
+        if len(d) > _NORMAL_EQUATIONS_ABOVE:  # a rasterised patch: the 6 x 6 normal equations
+            # (lstsq on thousands of rows costs ~40 ms with threaded BLAS on a shared machine)
+            coef = np.linalg.solve(A.T @ A, A.T @ d)
+        else:
+            coef, *_ = np.linalg.lstsq(A, d, rcond=None)
         H = np.array([[coef[3], coef[4]], [coef[4], coef[5]]])
         k, E = np.linalg.eigh(H)
         t = p @ E
@@ -279,7 +292,8 @@ def load_cases(acceleration_m_s2: float, downs_gripper: tuple[np.ndarray, ...] =
 
 def hold_requirement(top: ContactPatch, bottom: ContactPatch, com_gripper_m: np.ndarray,
                      mass_kg: float, acceleration_m_s2: float, mu: float, safety_factor: float,
-                     downs_gripper: tuple[np.ndarray, ...] = ()) -> HoldRequirement:
+                     downs_gripper: tuple[np.ndarray, ...] = (), width_m: float = 0.0
+                     ) -> HoldRequirement:
     """Clamp force per finger that holds the part (see the module docstring).
 
     Parameters
@@ -292,6 +306,9 @@ def hold_requirement(top: ContactPatch, bottom: ContactPatch, com_gripper_m: np.
     downs_gripper : tuple of (3,) float arrays
         Gravity's direction in the gripper frame at the poses the part is held in; empty:
         any direction (worst case).
+    width_m : float
+        Distance between the pads, m: the arm of the pads' friction couple about the pad
+        plane's axes (0: that couple is not counted).
     """
     if mu <= 0:
         return HoldRequirement(math.inf, math.inf, 0.0, math.inf, 0.0, 0.0)
@@ -325,9 +342,72 @@ def hold_requirement(top: ContactPatch, bottom: ContactPatch, com_gripper_m: np.
         t = need[big] / size[big, None]
         reach = (bottom.points_m @ t.T).max(axis=0) - (top.points_m @ t.T).min(axis=0)
         per = np.where(reach > 1e-9, size[big] / np.maximum(reach, 1e-9), math.inf)
+        if width_m > 0.0 and force_cap > 0.0:
+            per = np.minimum(per, _friction_couple(loads[big], moments[big], mu1, mu2,
+                                                   m_c[big], torsion_cap, float(width_m)))
         tipping = sf * float(per.max())
     lever = float(math.hypot(r[0], r[2]))
     return HoldRequirement(max(friction, tipping), friction, tipping, slide, lever, rho)
+
+
+def _friction_couple(loads: np.ndarray, moments: np.ndarray, mu1: float, mu2: float,
+                     m_c: np.ndarray, torsion_cap: float, width_m: float) -> np.ndarray:
+    """Clamp force per finger (no safety factor) at which the pads' friction carries the
+    in-plane load, the moment about the closing axis and, as a couple across the grip width,
+    the moment about the pad plane's axes (see the module docstring), per load case (n,)."""
+    load_t = loads[:, [0, 2]]  # (n, 2): the load in the pad plane (x, z)
+    share = -load_t / (mu1 + mu2)
+    a, b = mu1 * share, mu2 * share  # each pad's share of the load, by its friction
+    # (w / 2) y x (f1 - f2) = -(M_x, M_z): f1 - f2 = (2 M_z / w, -2 M_x / w) in (x, z)
+    diff = np.stack([2.0 * moments[:, 2], -2.0 * moments[:, 0]], axis=1) / width_m
+    d = 0.5 * (diff - (a - b))
+    f1, f2 = np.linalg.norm(a + d, axis=1), np.linalg.norm(b - d, axis=1)
+    twist = m_c / torsion_cap if torsion_cap > 0.0 else np.where(m_c > 1e-15, math.inf, 0.0)
+    need = np.zeros(len(loads))
+    for f, mu_i in ((f1, mu1), (f2, mu2)):
+        pad = np.hypot(f / mu_i, twist) if mu_i > 0.0 else np.where(f > 1e-15, math.inf, 0.0)
+        need = np.maximum(need, pad)
+    return need
+
+
+@dataclass(frozen=True, eq=False)
+class HoldInputs:
+    """What :func:`hold_requirement` judged a grasp on, kept to judge it again on more
+    load cases (the gravity directions along the planned transfer:
+    :mod:`asmplan.planner.transfer_hold`).
+
+    Parameters
+    ----------
+    top, bottom : ContactPatch
+    com_gripper_m : (3,) float array
+    mass_kg, acceleration_m_s2, mu, safety_factor, width_m : float
+    downs_gripper : tuple of (3,) float arrays
+        The gravity directions it was judged on (gripper frame).
+    T_part_gripper : (4, 4) float array
+        The gripper frame these are expressed in.
+    """
+
+    top: ContactPatch
+    bottom: ContactPatch
+    com_gripper_m: np.ndarray
+    mass_kg: float
+    acceleration_m_s2: float
+    mu: float
+    safety_factor: float
+    width_m: float
+    downs_gripper: tuple[np.ndarray, ...]
+    T_part_gripper: np.ndarray
+
+    def requirement(self, downs_part: np.ndarray | None = None) -> HoldRequirement:
+        """The hold requirement on the judged gravity directions plus ``downs_part`` ((n, 3)
+        gravity directions in the part frame), or on any direction if none was judged."""
+        downs = self.downs_gripper
+        if downs and downs_part is not None and len(downs_part):
+            R = np.asarray(self.T_part_gripper, float)[:3, :3]
+            downs = (*downs, *(np.asarray(downs_part, float).reshape(-1, 3) @ R))
+        return hold_requirement(self.top, self.bottom, self.com_gripper_m, self.mass_kg,
+                                self.acceleration_m_s2, self.mu, self.safety_factor, downs,
+                                self.width_m)
 
 
 def hold_lower_bound(lever_lb_m: float, pad_width_m: float, pad_length_m: float,

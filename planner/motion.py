@@ -55,7 +55,6 @@ from .errors import (
     ArmError,
     CollidingPair,
     GripInfeasibleError,
-    InsertionBlockedError,
     NoGraspError,
     NoPathError,
     PlanningError,
@@ -69,8 +68,6 @@ from .insertion import (
     clearing_travel_m,
     insertion_spec,
     mate_engagement_m,
-    other_body,
-    unexcused,
 )
 from .layout import initial_layout
 from .ompl_backend import SE3Bounds, plan_se3
@@ -82,14 +79,13 @@ from .regrasp_steps import plan_regrasp
 from .scene import (
     GRIPPER_CLOSED,
     GRIPPER_OPEN,
-    GRIPPER_SPAN,
-    TABLE,
     BroadPhaseValidity,
     Scene,
     colliding_pairs,
     translated,
 )
 from .settings import PlannerSettings
+from .step_checks import check_insertion, grasp_collisions
 from .timing import (
     Move,
     StepMotion,
@@ -98,6 +94,7 @@ from .timing import (
     motion_limits,
     time_step,
 )
+from .transfer_hold import gravity_in_part, horizontal_lever_m, part_orientations_along
 
 _Z = np.array([0.0, 0.0, 1.0])
 _ENGAGE_MARGIN_M = 1e-3  # the insertion speed starts this far before the pin tip enters
@@ -280,8 +277,8 @@ class MotionPlanner:
         T_pre = translated(T_seated, -spec.direction * pre_dist)
 
         # 1. the part alone along its insertion (independent of the grasp)
-        sampled = 0.0 if self.seats_directly else self._check_insertion(
-            index, part, spec, T_pre, T_seated, obstacles)
+        sampled = 0.0 if self.seats_directly else check_insertion(
+            self.scene, settings, index, part, spec, T_pre, T_seated, obstacles)
 
         # 2. grasps, best first: free at the start and final poses, then the full motion
         t_g = time.perf_counter()
@@ -316,8 +313,8 @@ class MotionPlanner:
         attempts = 0  # grasps whose motion was attempted
         ompl_s = check_s = grasp_s = 0.0
         free = collision_free(
-            candidates, lambda g: self._grasp_collisions(g, part, T_start, T_final, obstacles,
-                                                         None if self.seats_directly else T_pre),
+            candidates, lambda g: grasp_collisions(self.scene, product, g, part, T_start, T_final,
+                                       obstacles, None if self.seats_directly else T_pre),
             rejected, settings.max_grasp_candidates)
         for g in free:
             grasp_s += time.perf_counter() - t_g
@@ -365,107 +362,6 @@ class MotionPlanner:
             reasons.append("no antipodal finger placement within the gripper's stroke and the "
                            "friction cone")
         raise NoGraspError(part, reasons, index)
-
-    def _grasp_collisions(self, g: Grasp, part: str, T_start: np.ndarray, T_final: np.ndarray,
-                          obstacles: list[str], T_pre: np.ndarray | None = None
-                          ) -> tuple[str, list[CollidingPair]]:
-        """Fingers (the space they sweep while closing) at the start and assembled poses, and
-        the open gripper against the part itself. The fingers must also keep the process's
-        position tolerance from every obstacle at both poses (a real gripper is only placed
-        that accurately). With ``T_pre`` (the part's pre-insertion pose), the closed gripper
-        must also be free along the straight insertion (exact swept volume): a grasp inside a
-        housing that the gripper cannot enter is rejected here, before its motion is planned
-        (it would use up the ``max_grasps`` full attempts)."""
-        scene = self.scene
-        scene.use_gripper(g, self.product.gripper_for(part))
-        margin = self.product.process.position_tolerance_m
-        span = scene.piece_boxes(scene.world.model(GRIPPER_SPAN)).reshape(-1, 3)
-        for where, T_part in (("start pose", T_start), ("assembled pose", T_final)):
-            T = T_part @ g.T_part_gripper
-            # the gripper is made of boxes: its lowest point is exact without FCL
-            z = (span @ T[2, :3] + T[2, 3]).reshape(-1, 8).min(axis=1)
-            if float(z.min()) < margin:  # pieces: two fingers, then the palm
-                low = [n for n, zz in (("open fingers", z[:2].min()), ("palm", z[2:].min()))
-                       if zz < margin]
-                return f"{where} ({' and '.join(low)})", [CollidingPair(GRIPPER_SPAN, TABLE)]
-            hit = scene.hits(GRIPPER_SPAN, T, obstacles)
-            if hit:
-                return (f"{where} ({self._gripper_pieces(g, T, hit)})",
-                        [CollidingPair(GRIPPER_SPAN, o) for o in hit])
-            d, who = scene.closest([(GRIPPER_SPAN, T)], obstacles, margin)
-            if d < margin:
-                return (f"{where} (closer than the position tolerance "
-                        f"{margin * 1e3:.2f} mm)", [CollidingPair(GRIPPER_SPAN, who, None)])
-        if T_pre is not None:
-            G_pre = T_pre @ g.T_part_gripper
-            delta = (T_final @ g.T_part_gripper)[:3, 3] - G_pre[:3, 3]
-            swept = scene.sweep([(GRIPPER_CLOSED, G_pre)], delta, obstacles)
-            if swept.get(GRIPPER_CLOSED):
-                return "insertion", [CollidingPair(GRIPPER_CLOSED, o)
-                                     for o in sorted(swept[GRIPPER_CLOSED])]
-        scene.set_part_pose(part, T_start)
-        if scene.hits(GRIPPER_OPEN, T_start @ g.T_part_gripper, [part]):
-            return "grasp (open fingers on the part)", [CollidingPair(GRIPPER_OPEN, part)]
-        return "", []
-
-    def _gripper_pieces(self, g: Grasp, T_world_tcp: np.ndarray, hit: list[str]) -> str:
-        """Which of the gripper's pieces (the open fingers with the space they sweep closing,
-        or the palm behind them) the deepest contacts with ``hit`` lie in."""
-        world = self.scene.world
-        world.set_pose(GRIPPER_SPAN, T_world_tcp)
-        half_length = float(self.product.gripper_for(g.part).finger_size_m[2]) / 2
-        found = set()
-        for c in world.contacts([GRIPPER_SPAN], hit, self.scene.tolerance_m):
-            z = float((invert(T_world_tcp) @ np.append(c.point_m, 1.0))[2])
-            found.add("palm" if z < -half_length - 1e-9 else "open fingers")
-        return " and ".join(sorted(found)) or "open fingers"
-
-    def _check_insertion(self, index: int, part: str, spec: InsertionSpec, T_pre: np.ndarray,
-                         T_final: np.ndarray, obstacles: list[str]) -> float:
-        """The part alone along its straight insertion: the seated and pre-insertion poses,
-        then the exact sweep between them. Returns the sampling step used to excuse contact
-        with a mate partner (0 when the sweep met nothing)."""
-        scene = self.scene
-        pairs = scene.contacts_at([(part, T_final)], obstacles)
-        bad = self._unexcused(pairs, spec, part, T_final)
-        dist = float(np.linalg.norm(T_final[:3, 3] - T_pre[:3, 3]))
-        if bad:
-            raise InsertionBlockedError(index, part, other_body(bad[0], part), T_final, bad, 0.0,
-                                        segment="assembled pose")
-        pairs = scene.contacts_at([(part, T_pre)], obstacles)
-        if pairs:
-            raise InsertionBlockedError(index, part, other_body(pairs[0], part), T_pre, pairs, dist,
-                                        segment="pre-insertion pose")
-        delta = T_final[:3, 3] - T_pre[:3, 3]
-        hits = scene.sweep([(part, T_pre)], delta, obstacles).get(part, set())
-        if not hits:
-            return 0.0
-        partners = {r.hole_part if r.pin_part == part else r.pin_part for r in spec.regions}
-        strangers = sorted(hits - partners)
-        # locate the first blocking sample for evidence (and excuse pin-in-hole contact)
-        step = self._insertion_step(spec)
-        n = max(1, math.ceil(dist / step))
-        check = sorted(hits)
-        for i in range(n + 1):
-            T = translated(T_pre, delta * (i / n))
-            pairs = scene.contacts_at([(part, T)], check)
-            bad = self._unexcused(pairs, spec, part, T)
-            if bad:
-                raise InsertionBlockedError(index, part, other_body(bad[0], part), T, bad,
-                                            dist * (1 - i / n))
-        if strangers:  # the sweep hit something the samples did not: report it anyway
-            raise InsertionBlockedError(index, part, strangers[0], T_pre, [], dist,
-                                        segment="insertion (swept volume)")
-        return step
-
-    def _insertion_step(self, spec: InsertionSpec) -> float:
-        s = self.settings
-        c = spec.radial_clearance_min_m
-        return max(s.min_insertion_step_m, min(s.insertion_step_m, 4.0 * c))
-
-    def _unexcused(self, pairs: Sequence[CollidingPair], spec: InsertionSpec, part: str,
-                   T_part: np.ndarray) -> list[CollidingPair]:
-        return unexcused(pairs, spec, part, T_part, self.scene.poses)
 
     # Complexity above C (radon): the straight segments and the planned path of one grasp in the order
     # the robot moves them; each check ends the grasp with its own reason.
@@ -601,6 +497,7 @@ class MotionPlanner:
             err = NoPathError(index, part, partial, last_reason, pairs_seen)
             raise _GraspFailed(last_reason, err)
 
+        g, clamp = self._hold_along(index, part, g, clamp, path, lever, perp, "transfer")
         limits = motion_limits(product, part)
         lower: tuple[Move, ...]
         if self.seats_directly:
@@ -632,6 +529,14 @@ class MotionPlanner:
                 sel = traj.phase_indices_at(traj.t_s) == [p.name for p in traj.phases].index(
                     "translate")
                 path = traj.T_world_gripper[sel]
+                commanded = clamp.commanded_N
+                g, clamp = self._hold_along(index, part, g, clamp, path, lever, perp,
+                                            "arm's joint-space transfer")
+                if clamp.commanded_N > commanded * (1.0 + 1e-9):
+                    raise _GraspFailed(
+                        f"the arm's joint-space transfer turns the part so that the grip "
+                        f"needs {clamp.commanded_N:.3g} N per finger, more than the "
+                        f"{commanded:.3g} N the step was timed with")
         notes = []
         if arm_motion is not None and arm_motion.joint_space_translate:
             notes.append("the arm cannot follow the planned Cartesian transfer; it was planned "
@@ -651,6 +556,26 @@ class MotionPlanner:
                     insertion_check_step_m=insertion_sampled_m,
                     checked_poses=checked, notes=tuple(notes), arm=arm_motion)
         return step, ompl_s, check_s, checked
+
+    def _hold_along(self, index: int, part: str, g: Grasp, clamp: Any, path: np.ndarray,
+                    lever: float, perp: np.ndarray, what: str) -> tuple[Grasp, Any]:
+        """The grasp's hold judged again with gravity's directions along the planned
+        ``path`` (gripper poses, world; :mod:`asmplan.planner.transfer_hold`): the grasp with
+        the larger requirement and its clamp force, or the same ones."""
+        if g.hold is None or g.hold_required_N is None:
+            return g, clamp
+        R_wp = part_orientations_along(path, g.T_part_gripper)
+        req = g.hold.requirement(gravity_in_part(R_wp))
+        if req.required_N <= float(g.hold_required_N) * (1.0 + 1e-9):
+            return g, clamp
+        g = replace(g, hold_required_N=req.required_N, lever_m=req.lever_m)
+        try:
+            clamp = held_clamp_force(self.product, part, clamp, g, index, lever_m=lever,
+                                     gravity_lever_m=horizontal_lever_m(R_wp, perp))
+        except GripInfeasibleError as exc:
+            raise _GraspFailed(f"grip infeasible along the {what} (the gripper turns the "
+                               f"part; {req.mechanism}): {exc}", exc) from None
+        return g, clamp
 
     def _radius(self, part: str, T_pg: np.ndarray, g: Grasp) -> float:
         return carried_radius(self.product.gripper_for(part), self.parts[part], T_pg, g)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
@@ -21,6 +21,7 @@ import numpy as np
 
 from ..fileio import atomic_write_text, dumps_json
 from ..knowledge.arrays import readonly_array
+from .grasp_hold import HoldInputs
 from .press import PressOperation
 from .settings import PlannerSettings
 from .timing import ClampForce
@@ -167,6 +168,9 @@ class Grasp:
     hold_required_N : float, optional
         Clamp force per finger that holds the part's weight and inertia with this grasp
         (safety factor included), N.
+    hold : HoldInputs, optional
+        The contact patches and load the hold was judged on, to judge it again along the
+        planned transfer (in memory only: not written to the plan file).
     """
 
     part: str
@@ -180,6 +184,7 @@ class Grasp:
     torsion_radius_m: float | None = None
     lever_m: float | None = None
     hold_required_N: float | None = None
+    hold: HoldInputs | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "T_part_gripper", _pose(self.T_part_gripper, "T_part_gripper"))
@@ -217,8 +222,14 @@ class Grasp:
                    contact_area_m2=float(d["contact_area_m2"]),
                    com_offset_m=float(d["com_offset_m"]), source=d["source"],
                    cost=float(d["cost"]),
-                   **{k: float(d[k]) for k in ("torsion_radius_m", "lever_m", "hold_required_N")
-                      if d.get(k) is not None})
+                   torsion_radius_m=_optional_float(d, "torsion_radius_m"),
+                   lever_m=_optional_float(d, "lever_m"),
+                   hold_required_N=_optional_float(d, "hold_required_N"))
+
+
+def _optional_float(d: dict[str, Any], key: str) -> float | None:
+    v = d.get(key)
+    return None if v is None else float(v)
 
 
 @dataclass(frozen=True, eq=False)

@@ -43,12 +43,14 @@ from numpy.typing import ArrayLike
 from ..knowledge.frames import invert
 from ..planner.trajectory import OPEN_PHASES, Trajectory, quat_xyzw_from_matrix, rotation_angle_rad
 from .bullet import BulletWorld
+from .carry_hold import CarryHold
 from .contacts import Contacts, concat_contacts
 from .feature_contact import HeldFitContact
 from .gripper import FINGER_LINKS, Gripper
 from .guard import SceneWatch
 from .judge import _SPEED_MARGIN_MPS, _failures, judge
 from .partner_hold import PartnerHold
+from .placed_hold import PlacedHold
 from .records import StepOutcome, StepRecord, SuccessCriteria
 from .rest import RestKeeper
 from .verdicts import ContactEvidence, Failure, SceneGuard, two_point_contacts
@@ -147,6 +149,7 @@ def execute_step(
     carry_anchor: bool = False,
     fit_contact: HeldFitContact | None = None,
     partner_hold: PartnerHold | None = None,
+    carry_hold: CarryHold | None = None,
 ) -> tuple[StepRecord, StepOutcome]:
     """Drive the gripper along ``trajectory`` and judge the step.
 
@@ -193,6 +196,10 @@ def execute_step(
         Holds the mate partners static while the load check allows
         (:mod:`asmplan.sim.partner_hold`): started after the first physics step, checked at
         every peak sample.
+    carry_hold : CarryHold, optional
+        Sticks the part to the palm in the held phases while it touches nothing but the pads
+        and its grip holds the load (:mod:`asmplan.sim.carry_hold`): called after every
+        physics step, its load checked at every peak sample.
 
     Returns
     -------
@@ -255,6 +262,10 @@ def execute_step(
     stop: Failure | None = None
     lower_contacts: dict[int, Contacts] = {}  # record row -> the part's non-finger contacts
     rest = RestKeeper(world, gripper.body, part_body) if fid.rest_window_s > 0 else None
+    placed = (PlacedHold(world, part_body, gripper.body,
+                         () if fit_contact is None else tuple(p.partner for p in fit_contact.pairs),
+                         fid.partner_hold_fraction)
+              if fid.rest_window_s > 0 and before_step is None else None)  # a press's ram may act
     placed_after = names.index("lower") if "lower" in names else len(names)
     wall0 = time.perf_counter()
     r = 0
@@ -265,8 +276,12 @@ def execute_step(
     # switched on before the first step: changing Bullet's collision filter of a body drops
     # its contact manifolds (a gripped part's pads lost theirs and sank 0.2 mm into it)
     fit_from = 0
-    if fit_contact is not None:  # the pads' friction takes its share of the fit contact's solve
-        fit_contact.set_grip(gripper.body, FINGER_LINKS, gripper.spec.pad_friction)
+    if fit_contact is not None:  # the pads take their share of the fit contact's solve
+        spec = gripper.spec
+        fit_contact.set_grip(gripper.body, FINGER_LINKS, spec.pad_friction,
+                             spec.synchronised and fid.grip_rows,
+                             spec.finger_mass_kg,
+                             None if spec.pad_groove_depth_m > 0.0 else spec.pad_size_m)
 
     def part_contacts() -> Contacts:
         con = world.contacts(part_body)
@@ -274,9 +289,13 @@ def execute_step(
             return concat_contacts(con, fit_contact.contacts())
         return con
 
+    # the per-step scalars as Python lists: indexing a numpy array per step costs a scalar
+    # object each time (the same doubles and ints)
+    open_at, lower_at = is_open.tolist(), is_lower.tolist()
+    phase_at, force_at, t_at = phase_idx.tolist(), f_cmd.tolist(), t_cmd.tolist()
     for i in range(n_steps):
         if carry_anchor:  # anchors while clamped and carried, off at the set-down contact
-            want = not is_open[i] and not set_down and int(phase_idx[i]) <= placed_after
+            want = not open_at[i] and not set_down and phase_at[i] <= placed_after
             if want != anchored:
                 world.set_friction_anchor(gripper.body, FINGER_LINKS, want)
                 anchored = want
@@ -285,12 +304,12 @@ def execute_step(
                 fit_contact.activate()
             fit_contact.before_step()
         gripper.command_pose_pq(pos_cmd[i], quat_cmd[i])
-        if is_open[i]:
+        if open_at[i]:
             if mode_open is not True:
                 gripper.command_open()
                 mode_open = True
         else:
-            gripper.command_clamp_force(float(f_cmd[i]))
+            gripper.command_clamp_force(force_at[i])
             mode_open = False
         if before_step is not None:  # e.g. a press fit's resistance (asmplan.sim.press)
             before_step(i)
@@ -298,12 +317,15 @@ def execute_step(
         if fit_contact is not None:
             fit_contact.after_step()
         if partner_hold is not None and (i == 0 or (i + 1) % peak_every == 0):
-            partner_hold.check(float(t_cmd[i]))
+            partner_hold.check(t_at[i])
+        if carry_hold is not None:
+            carry_hold.after_step(t_at[i], names[phase_at[i]], force_at[i],
+                                  (i + 1) % peak_every == 0)
         if r >= m or tick_steps[r] != i:
             # between record rows: sample the peak criteria at their own rate
             if (i + 1) % peak_every:
                 continue
-            if is_lower[i]:
+            if lower_at[i]:
                 con = part_contacts()
                 is_finger = (con.body_b == gripper.body) & _is_finger_link(con.link_b)
                 if carry_anchor and not set_down:
@@ -317,7 +339,7 @@ def execute_step(
         # carried: the part's speed in the grip
         carried = ({part_body: world.velocity(gripper.body)[0]} if mode_open is False
                    else None)
-        stop = watch.check(float(t_cmd[i]), carried)
+        stop = watch.check(t_at[i], carried)
         if stop is not None:
             break
         T_part = world.pose(part_body)
@@ -333,15 +355,15 @@ def execute_step(
                   for link in FINGER_LINKS]
         others = con.select(~is_finger)
         external = others.force_on_a_N()
-        if is_lower[i] and axis is not None:
+        if lower_at[i] and axis is not None:
             lower_contacts[r] = others
-        if carry_anchor and not set_down and is_lower[i]:
+        if carry_anchor and not set_down and lower_at[i]:
             set_down = _touches_other_than(con, gripper.body)
         v, w = world.velocity(part_body)
         ke = world.kinetic_energy_J(part_body, (v, w), T_part)
         T_grip = _finger_frame(T_tcp, travel)
         T_grip_part = invert(T_grip) @ T_part
-        t = float(t_cmd[i])
+        t = t_at[i]
         if T_grip_part_ref is None and t >= clamp_end - 1e-12:
             T_grip_part_ref = T_grip_part
         if T_grip_part_ref is not None:
@@ -356,8 +378,8 @@ def execute_step(
             rec["axial_error_m"][r] = ax
             rec["lateral_error_m"][r] = float(np.linalg.norm(e - ax * axis))
         rec["t_s"][r] = t
-        rec["phase_index"][r] = int(phase_idx[i])
-        rec["commanded_force_N"][r] = float(f_cmd[i])
+        rec["phase_index"][r] = phase_at[i]
+        rec["commanded_force_N"][r] = force_at[i]
         rec["measured_force_N"][r] = forces
         rec["T_world_part"][r] = T_part
         rec["T_world_gripper"][r] = T_tcp
@@ -372,7 +394,9 @@ def execute_step(
         if nan_detected:
             break
         if rest is not None:  # bodies at rest that nothing moving can reach sleep (sim/rest)
-            rest.tick(bool(mode_open) and int(phase_idx[i]) > placed_after)
+            rest.tick(bool(mode_open) and phase_at[i] > placed_after)
+        if placed is not None:  # the placed part static while nothing can move it (sim/placed_hold)
+            placed.tick(t, phase_at[i] > placed_after, con)
     wall = time.perf_counter() - wall0
     if r < m:  # stopped early (NaN, guard): keep the rows written so far
         rec = {name: a[:r] for name, a in rec.items()}

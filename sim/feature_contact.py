@@ -43,16 +43,12 @@ switches it on before the step's first physics step: changing a body's collision
 drops its contact manifolds, and a gripped part's pads sank 0.2 mm into it). The fingers and
 every other body keep Bullet's contact.
 
-The grip. Bullet solves the pads against the held body a step before this model; their
-friction takes its share of this model's solve with what their cones have left
-(:meth:`HeldFitContact.set_grip`), their normals do not.
-
-Known limits (measured, open): the pads' normals (the moment their pressure carries) act
-only in Bullet's step, so a pin stopped on a rim crescent while the grip slides tilts in the
-grip (the 0.12 mm capture case at BALANCED); a step into free space is kept as Bullet took it
-(an approaching pin is not stopped by a linearised edge gap); the block's face is a disc out
-to the solid's farthest vertex (docs/physics.md, "Exact fit contact").
-"""
+The grip. Bullet solves the pads against the held body a step before this model. With
+synchronised jaws their normals and friction join this model's solve on the part and the
+fingers (:mod:`asmplan.sim.grip_pads`); with floating jaws only their friction, with what
+their cones have left (:meth:`HeldFitContact.set_grip`). Known limits (measured, open): a
+step into free space is kept as Bullet took it; the block's face is a disc out to the
+solid's farthest vertex (docs/physics.md, "Exact fit contact")."""
 
 from __future__ import annotations
 
@@ -65,13 +61,18 @@ import numpy as np
 from ..knowledge.frames import rotation_about
 from .bullet import BulletWorld
 from .contacts import Contacts
+from .fit_clear import DeferredReuse
 from .fit_forces import SolvedStep, solved_forces
 from .fit_geometry import FitContact, FitContactModel
 from .fit_ldp import least_distance
 from .fit_memo import LastCall
+from .grip_pads import Grip, apply_fingers, cross_rows, grip_share, synchronised_grip, tangent_rows
 
 FRICTION_ROUNDS = 3
 """Alternations of the exact normal solve and the friction sweep per step."""
+
+GRIP_ROUNDS = 10
+"""... with a synchronised gripper's pads in the solve (:mod:`asmplan.sim.grip_pads`)."""
 
 PROJECTION_TOLERANCE_M = 0.05e-6
 """Penetration left by the velocity step above which the pose is projected out, m."""
@@ -96,30 +97,6 @@ def _norm(x: np.ndarray) -> float:
     """Euclidean norm of a 1-D float array: ``np.linalg.norm``'s own computation for it,
     sqrt(x . x), without its ~3 us of dispatch (the same bits)."""
     return math.sqrt(float(x.dot(x)))
-
-
-def _cross(a: np.ndarray, b: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """Row-wise cross product of (k, 3) arrays (np.cross's overhead dominates at k ~ 10),
-    into ``out`` (k, 3) when given."""
-    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
-    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
-    if out is None:
-        out = np.empty((a.shape[0], 3))
-    out[:, 0] = a1 * b2 - a2 * b1
-    out[:, 1] = a2 * b0 - a0 * b2
-    out[:, 2] = a0 * b1 - a1 * b0
-    return out
-
-
-_HELPER_X = np.array([[1.0, 0.0, 0.0]])
-_HELPER_Y = np.array([[0.0, 1.0, 0.0]])
-
-
-def _tangents(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    helper = np.where(np.abs(n[:, :1]) < 0.9, _HELPER_X, _HELPER_Y)
-    t1 = _cross(n, helper)
-    t1 /= np.sqrt(np.sum(t1 * t1, axis=1))[:, None]
-    return t1, _cross(n, t1)
 
 
 @dataclass(frozen=True)
@@ -183,16 +160,25 @@ class HeldFitContact:
         self._base: tuple[np.ndarray, FitContact | None, np.ndarray | None, float,
                           dict[int, np.ndarray] | None] | None = None
         self._grip: tuple[int, tuple[int, ...], float] | None = None
+        self._grip_rows: Grip | None = None
         # the same every step while a detection is reused (asmplan.sim.fit_memo)
-        self._tangents_of = LastCall(_tangents)
+        self._tangents_of = LastCall(tangent_rows)
         self._base_rows: LastCall[tuple, np.ndarray] = LastCall(self._rows_at_base)
+        self._deferred = DeferredReuse(self)
 
-    def set_grip(self, gripper_body: int, pad_links: Sequence[int], pad_friction: float) -> None:
+    def set_grip(self, gripper_body: int, pad_links: Sequence[int], pad_friction: float,
+                 synchronised: bool = False, finger_mass_kg: float = 0.0,
+                 pad_size_m: Sequence[float] | None = None) -> None:
         """The gripper whose pads hold the body: their friction takes its share of each step's
-        contact solve (see :meth:`_pad_rows`). ``pad_friction`` is the pads' coefficient
-        (combined with the held body's as Bullet does, by product)."""
+        solve (:meth:`_pad_rows`; ``pad_friction`` combined with the body's by product).
+        Synchronised jaws (finger 1 closing along -y, finger 2 along +y, ``finger_mass_kg``
+        each): normals and friction on the part and fingers, a flat pad's contact
+        (``pad_size_m``) filled along its face (:mod:`asmplan.sim.grip_pads`)."""
         mu = float(pad_friction) * self.world.lateral_friction(self.held_body)
         self._grip = (int(gripper_body), tuple(int(k) for k in pad_links), mu)
+        if synchronised:
+            self._grip_rows = synchronised_grip(self.world, *self._grip, finger_mass_kg,
+                                                pad_size_m, self.held_body)
 
     # ------------------------------------------------------------------ switching
     def activate(self) -> None:
@@ -328,17 +314,26 @@ class HeldFitContact:
 
     def _stands(self, T_prev: np.ndarray, margin: float) -> bool:
         """Keep Bullet's step when the detections of :meth:`after_step` would keep it, proved
-        without making them: no reuse is possible, every contact at the pre-step pose has a
-        gap above :data:`FRICTION_GAP_M` (none: the pin is free; all: approaching) and none
-        penetrates at the pose Bullet reached. The pre-step detection, which a later step may
+        without making them: where a reuse of the last (deferred) detection is possible, by
+        :class:`~asmplan.sim.fit_clear.DeferredReuse`; otherwise every contact at the pre-step
+        pose has a gap above :data:`FRICTION_GAP_M` (none: the pin is free; all: approaching)
+        and none penetrates at the pose Bullet reached. The pre-step detection, which a later step may
         reuse, is left for :meth:`_detect_near` to make if one does (its pose, margin and
         partners kept), so every result is the same, bit for bit."""
-        if self._may_reuse(T_prev, margin) or not self._clear(T_prev, margin, FRICTION_GAP_M):
-            return False
-        T_step = self.world.pose(self.held_body)
-        if not self._clear(T_step, MIN_MARGIN_M, 0.0):
-            return False
-        self._base = (T_prev.copy(), None, None, margin, dict(self._T_partner))
+        if self._may_reuse(T_prev, margin):
+            # the reuse decided without the detection where provable (sim/fit_clear.py)
+            T_reused = self._deferred.stands(T_prev, margin, FRICTION_GAP_M, MIN_MARGIN_M)
+            if T_reused is None:
+                return False
+            T_step = T_reused
+            self.reused += 1
+        else:
+            if not self._clear(T_prev, margin, FRICTION_GAP_M):
+                return False
+            T_step = self.world.pose(self.held_body)
+            if not self._clear(T_step, MIN_MARGIN_M, 0.0):
+                return False
+            self._base = (T_prev.copy(), None, None, margin, dict(self._T_partner))
         self._reaction, self._solved = [], None
         self._last = _empty_contacts()
         self._T_prev = T_step
@@ -347,8 +342,8 @@ class HeldFitContact:
 
     def after_step(self) -> None:
         """Solve the held body's fit contact for the step Bullet just took (module docstring)."""
-        if not self.active:
-            return
+        if not self.active or self.world.is_static(self.held_body):
+            return  # static: the placed part held where it rests (sim/placed_hold.py)
         assert self._T_prev is not None
         world, dt = self.world, self.world.fidelity.dt_s
         T_prev = self._T_prev
@@ -398,9 +393,15 @@ class HeldFitContact:
                 return
         Minv_sqrt = self._minv_sqrt(R_prev)
         mu = self.friction[owner]
-        pads = self._pad_rows(c_prev, dt)
-        u_new, lam_n, p_t, t1, t2 = self._solve_velocity(found, mu, c_prev, u, Minv_sqrt, dt,
-                                                         pads)
+        gripped = (None if self._grip_rows is None else grip_share(
+            world, self._grip_rows, self.held_body, found.point_m, found.normal, found.gap_m,
+            mu, T_prev, c_prev, u, Minv_sqrt, dt, GRIP_ROUNDS))
+        if gripped is None:
+            u_new, lam_n, p_t, t1, t2 = self._solve_velocity(
+                found, mu, c_prev, u, Minv_sqrt, dt, self._pad_rows(c_prev, dt))
+        else:
+            u_new, lam_n, p_t = gripped.twist, gripped.fit_normal, gripped.fit_tangent
+            t1, t2 = gripped.t1, gripped.t2
         # re-integrate from the pre-step pose with the corrected velocity
         c_new = c_prev + dt * u_new[:3]
         wn = _norm(u_new[3:])
@@ -415,6 +416,8 @@ class HeldFitContact:
             T_new, after = self._project(T_new, after, new_margin)
         world.set_pose(self.held_body, T_new)
         world.set_velocity(self.held_body, u_new[:3], u_new[3:])
+        if gripped is not None and self._grip_rows is not None:
+            apply_fingers(world, self._grip_rows, gripped, dt)
         self._T_prev = T_new
         self._found, self._found_margin = after, new_margin
         self.steps_solved += 1
@@ -448,7 +451,7 @@ class HeldFitContact:
     def _rows(points: np.ndarray, dirs: np.ndarray, c: np.ndarray) -> np.ndarray:
         rows = np.empty((dirs.shape[0], 6))
         rows[:, :3] = dirs
-        _cross(points - c, dirs, rows[:, 3:])
+        cross_rows(points - c, dirs, rows[:, 3:])
         return rows
 
     def _pad_rows(self, c: np.ndarray, dt: float
@@ -475,10 +478,10 @@ class HeldFitContact:
         con = con.select(on_pad)
         n = con.normal_on_b
         p = con.position_on_a_m
-        t1, t2 = _tangents(n)
+        t1, t2 = tangent_rows(n)
         rows = np.stack([self._rows(p, t1, c), self._rows(p, t2, c)], axis=1)
         v_g, w_g = self.world.velocity(body)
-        v_pad = v_g + _cross(np.broadcast_to(w_g, p.shape), p - self.world.com_position_m(body))
+        v_pad = v_g + cross_rows(np.broadcast_to(w_g, p.shape), p - self.world.com_position_m(body))
         target = np.column_stack([np.sum(t1 * v_pad, axis=1), np.sum(t2 * v_pad, axis=1)])
         used2 = np.sum(con.friction_on_a_N * con.friction_on_a_N, axis=1)
         cap = np.sqrt(np.maximum(0.0, (mu * con.normal_force_N) ** 2 - used2)) * dt
@@ -572,7 +575,18 @@ class HeldFitContact:
         return T, found
 
 
+def _make_empty_contacts() -> Contacts:
+    arrays = (np.zeros(0, dtype=int), np.zeros(0, dtype=int), np.zeros(0, dtype=int),
+              np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0),
+              np.zeros(0), np.zeros((0, 3)))
+    for a in arrays:
+        a.flags.writeable = False
+    return Contacts(*arrays)
+
+
+_EMPTY_CONTACTS = _make_empty_contacts()
+"""No contact: one shared read-only instance (it was built from 9 arrays at every step)."""
+
+
 def _empty_contacts() -> Contacts:
-    return Contacts(np.zeros(0, dtype=int), np.zeros(0, dtype=int), np.zeros(0, dtype=int),
-                    np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0),
-                    np.zeros(0), np.zeros((0, 3)))
+    return _EMPTY_CONTACTS

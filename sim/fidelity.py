@@ -209,7 +209,36 @@ class Fidelity:
         pinhole_station part3's and part4's steps 3.5 -> 2.6 s of CPU each, the job 12.98 ->
         11.73 s; same verdicts, final errors within 0.01 um: docs/physics.md, "Mate partners
         held static under a load check"). FAST: 0 (its partners are static throughout).
-        ACCURATE: 0 (not measured; the final proof keeps every partner dynamic).
+        ACCURATE: 0 (not measured; the final proof keeps every partner dynamic). The same
+        fraction lets the placed part be held static while the pads are still on it in
+        "release" (:mod:`asmplan.sim.placed_hold`; with 0 it is held only once the gripper
+        does not touch it; the placed hold is on wherever ``rest_window_s`` > 0).
+    carry_hold_fraction : float
+        A carried part stuck to the palm (:mod:`asmplan.sim.carry_hold`; the pipeline applies
+        it on grooved pads, whose Bullet contact does not hold a part): in the lift, the
+        transfer and the lowering, while the part touches nothing but the pads and its load
+        (weight and inertia of the part moving with the commanded gripper pose) uses at most
+        this share of the grip's analytic capacity (the planner's hold criterion for that
+        load, :mod:`asmplan.planner.grasp_capacity`), it is kept at its pose relative to the
+        palm (free along the closing axis; put back every 4 ms; on flat pads from when it
+        rests in them, :mod:`asmplan.sim.carry_hold`); the first contact with anything
+        else, the first load sample beyond the share or the end of the held phases hands it
+        back to Bullet's pad contact. 0 turns it off. BALANCED: 0.75 (ratio 1 is where the
+        analytic grip just holds; the criterion leaves out the pads' friction couple across
+        the grip; the gearbox shaft on prism jaws peaks at 0.54 over its transfer and is
+        carried within 0.78 mrad instead of turning 8-66 mrad, at half the clamp it is
+        handed back at 0.75 and turns as before: docs/physics.md, "A carried part stuck to
+        its pads"). FAST and ACCURATE: 0 (not measured).
+    grip_rows : bool
+        A synchronised gripper's pad normals and friction as rows of the exact fit contact's
+        solve, acting on the part and the fingers (:mod:`asmplan.sim.grip_pads`); off: the
+        pads take only their friction's share (floating jaws always). ACCURATE: on (its 0.5 deg
+        tilted 8 mm / 10 um and 12 mm / 25 um fits jam at 1.117 / 2.704 mm, Whitney 1.181 /
+        2.917, instead of going in). BALANCED: off, measured: with the rows the bundled peg
+        at 0.1 mm pose errors jams at 9.7 mm with 3.6 mm of slip in the grip
+        (tests/sim/test_sweep_nominal.py, tests/sim/test_sweep.py's pose sweep): the rows
+        are not yet right for a chamfered capture (docs/physics.md, open). FAST: no fit
+        contact.
 """
 
     name: str
@@ -237,6 +266,8 @@ class Fidelity:
     grip_creep: bool = False
     impact_penetration_m: float = 0.0
     partner_hold_fraction: float = 0.0
+    carry_hold_fraction: float = 0.0
+    grip_rows: bool = False
 
     def __post_init__(self) -> None:
         def positive(label: str, value: float) -> None:
@@ -284,6 +315,9 @@ class Fidelity:
         if not 0.0 <= self.partner_hold_fraction <= 1.0:
             raise ValueError(f"Fidelity.partner_hold_fraction: expected a value in [0, 1], "
                              f"found {self.partner_hold_fraction}")
+        if not 0.0 <= self.carry_hold_fraction <= 1.0:
+            raise ValueError(f"Fidelity.carry_hold_fraction: expected a value in [0, 1], "
+                             f"found {self.carry_hold_fraction}")
         positive("rest_displacement_m", self.rest_displacement_m)
         nonneg("impact_penetration_m", self.impact_penetration_m)
 
@@ -341,6 +375,7 @@ BALANCED = Fidelity(
     rest_window_s=0.1,
     feature_contact=True,
     partner_hold_fraction=0.5,
+    carry_hold_fraction=0.75,
 )
 
 ACCURATE = Fidelity(
@@ -360,6 +395,7 @@ ACCURATE = Fidelity(
     interference_resolution_m=0.02e-3,
     rest_window_s=0.1,
     feature_contact=True,
+    grip_rows=True,
 )
 
 PRESETS: dict[str, Fidelity] = {f.name: f for f in (FAST, BALANCED, ACCURATE)}

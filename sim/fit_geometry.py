@@ -36,8 +36,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .fit_clear import ClearanceProof
 from .fit_profile import Profile, polygon_sdf, revolved_sdf  # noqa: F401
-from .fit_samples import SKIP_BAND_M, MaterialBound, SampledCircles, circle_extents
+from .fit_samples import SKIP_BAND_M, MaterialBound, SampledCircles
 
 CIRCLE_SAMPLES = 96
 """Angles sampled per edge circle."""
@@ -284,6 +285,7 @@ class FitContactModel:
         self._circle_arrays = {
             on_pin: (np.array([h for h, _ in circles]), np.array([rad for _, rad in circles]))
             for on_pin, circles in ((True, self._pin_circles), (False, self._bore_circles))}
+        self._proof = ClearanceProof(self)
 
     def frames(self, T_world_pin_body: np.ndarray, T_world_bore_body: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
@@ -313,29 +315,9 @@ class FitContactModel:
         solid's superset, :class:`~asmplan.sim.fit_samples.MaterialBound`, over the circle's
         meridian extent, :func:`~asmplan.sim.fit_samples.circle_extents`) and from a blind
         bore's floor, and no two edges cross (:meth:`_edge_edge` then changes no gap; a
-        face-entry gap is negative only where the distance is). False says nothing."""
-        Tp, Tb = self.frames(T_world_pin_body, T_world_bore_body)
-        if self._apart(Tp, Tb, margin_m):
-            return True
-        if self._pin_bound is None or self._bore_bound is None:
-            return False
-        need = gap_m + SKIP_BAND_M
-        Rp, pp, Rb, pb = Tp[:3, :3], Tp[:3, 3], Tb[:3, :3], Tb[:3, 3]
-        pin = circle_extents(Rp, pp, *self._circle_arrays[True], Rb, pb)
-        if float(np.min(self._bore_bound.lower_box(*pin[:4]))) < need or (
-                not self.bore.through and float(np.min(pin[2])) < need - self.bore.depth_m):
-            return False
-        bore = circle_extents(Rb, pb, *self._circle_arrays[False], Rp, pp)
-        if float(np.min(self._pin_bound.lower_box(*bore[:4]))) < need:
-            return False
-        for on_pin, ecc in ((True, pin[4]), (False, bore[4])):
-            own = np.asarray(self._pin_vertex if on_pin else self._bore_vertex) >= 0
-            e, r = ecc[own, None], self._circle_arrays[on_pin][1][own, None]
-            other = self._bore_profile if on_pin else self._pin_profile
-            rv = other.polygon[other.vertex_convex, 0][None, :]
-            if np.any((e > np.abs(rv - r) - SKIP_BAND_M) & (e < rv + r + SKIP_BAND_M)):
-                return False
-        return True
+        face-entry gap is negative only where the distance is). False says nothing. Computed
+        on Python floats by :class:`~asmplan.sim.fit_clear.ClearanceProof`."""
+        return self._proof.clear_of(T_world_pin_body, T_world_bore_body, margin_m, gap_m)
 
     def contacts(self, T_world_pin_body: np.ndarray, T_world_bore_body: np.ndarray,
                  margin_m: float) -> FitContact:

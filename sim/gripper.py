@@ -462,6 +462,12 @@ class Gripper:
         self._torque = False
 
     @property
+    def squeeze_settled(self) -> bool:
+        """Force mode with the commanded squeeze fully applied (the fingers under joint
+        force, the touch ramp over): :mod:`asmplan.sim.carry_hold` waits for it."""
+        return self._mode == "force" and self._torque and self._touch_ramp() >= 1.0
+
+    @property
     def mode(self) -> str:
         """"force" or "open"."""
         return self._mode

@@ -15,7 +15,7 @@ from .bodies import aabb, piece_corners, transform_points
 
 if TYPE_CHECKING:
     from ..parts.models import ProductGeometry
-    from .scene import SceneSettings
+    from .scene_types import SceneSettings
 
 
 def _rect_minus(rect: np.ndarray, holes: list[np.ndarray]) -> list[np.ndarray]:

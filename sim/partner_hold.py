@@ -80,6 +80,21 @@ def _hull_2d(p: np.ndarray) -> np.ndarray:
     return np.array(lower[:-1] + upper[:-1], dtype=int)
 
 
+def bearing_polygon(p3: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, float]:
+    """The convex hull of bearing points ``p3`` (n, 3) seen along ``up`` and its area (m^2):
+    (indices into ``p3``, counter-clockwise; area)."""
+    e1 = np.cross(up, [1.0, 0.0, 0.0])
+    if float(np.linalg.norm(e1)) < 0.5:
+        e1 = np.cross(up, [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(up, e1)
+    p2 = np.stack([p3 @ e1, p3 @ e2], axis=1)
+    hull = _hull_2d(p2)
+    q = p2[hull]
+    area = 0.5 * float(np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1]))
+    return hull, area
+
+
 @dataclass
 class _Group:
     """Partners touching each other, held and woken together."""
@@ -188,15 +203,7 @@ class PartnerHold:
         if len(pts) < 3:
             return f"{len(pts)} bearing contact points (needs a polygon)"
         p3 = np.array(pts)
-        e1 = np.cross(up, [1.0, 0.0, 0.0])
-        if float(np.linalg.norm(e1)) < 0.5:
-            e1 = np.cross(up, [0.0, 1.0, 0.0])
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(up, e1)
-        p2 = np.stack([p3 @ e1, p3 @ e2], axis=1)
-        hull = _hull_2d(p2)
-        q = p2[hull]
-        area = 0.5 * float(np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1]))
+        hull, area = bearing_polygon(p3, up)
         if len(hull) < 3 or area < MIN_SUPPORT_AREA_M2:
             return f"bearing polygon of {area * 1e6:.3f} mm^2 (a point or a line)"
         a = p3[hull]

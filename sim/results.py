@@ -147,6 +147,10 @@ class StepResult:
         The mate partners held static under a load check (:mod:`asmplan.sim.partner_hold`),
         one entry per group: bodies, whether held, why not or when and why it woke, the
         number of checks and the largest sliding and tipping ratios seen.
+    carry : dict or None
+        The held part stuck to the palm while its grip holds the load
+        (:mod:`asmplan.sim.carry_hold`): whether and from when it was stuck, when and why it
+        was released, the largest load ratio against the grip's capacity.
     """
 
     index: int
@@ -163,6 +167,7 @@ class StepResult:
     pose_error: dict[str, list[float]] | None = None
     unresolved: tuple[Unresolved, ...] = ()
     partners: list[dict[str, Any]] | None = None
+    carry: dict[str, Any] | None = None
 
     @property
     def simulated(self) -> bool:
@@ -204,6 +209,7 @@ class StepResult:
             **({"unresolved": [u.to_dict() for u in self.unresolved]} if self.unresolved
                else {}),
             **({} if self.partners is None else {"partners": self.partners}),
+            **({} if self.carry is None else {"carry": self.carry}),
         })
         # the record is JSON-safe as it comes (StepRecord.to_dict): not walked element by
         # element again (its ~10^5 numbers were most of results.json's cost)
@@ -223,7 +229,7 @@ class StepResult:
                    press=d.get("press"),
                    pose_error=d.get("pose_error"),
                    unresolved=tuple(Unresolved.from_dict(u) for u in d.get("unresolved", ())),
-                   partners=d.get("partners"))
+                   partners=d.get("partners"), carry=d.get("carry"))
 
 
 @dataclass(frozen=True, eq=False)

@@ -48,6 +48,7 @@ import numpy as np
 from ..knowledge.model import Product
 from ..planner.plan import AssemblyState, Plan, Step, assembly_state, state_before
 from .bullet import BulletWorld
+from .carry_hold import CarryHold, grip_capacity
 from .execute import execute_step
 from .fidelity import BALANCED, Fidelity
 from .fit_ldp import preload_solver
@@ -158,6 +159,12 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
         hold = (PartnerHold(world, gripper.body, ids[step.part], fit,
                             fidelity.partner_hold_fraction)
                 if fidelity.partner_hold_fraction > 0.0 else None)
+        carry = None
+        # grooved pads only: on flat pads Bullet's contact carries the part (sim/carry_hold.py)
+        if fidelity.carry_hold_fraction > 0.0 and gripper.spec.pad_groove_depth_m > 0.0:
+            cap, why = grip_capacity(product, geometry, step.part, step.grasp)
+            carry = CarryHold(world, gripper, ids[step.part], traj, cap,
+                              fidelity.carry_hold_fraction, fit, why)
         record, outcome = execute_step(world, gripper, ids[step.part], traj, crit,
                                        T_world_part_target=step.T_world_final,
                                        mate_axis_world=step.insertion_direction,
@@ -165,7 +172,8 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
                                        before_step=None if press is None else press.before_step,
                                        insertion_length_m=step.insertion_length_m or None,
                                        guard=guard, carry_anchor=fidelity.carry_anchor,
-                                       fit_contact=fit, partner_hold=hold)
+                                       fit_contact=fit, partner_hold=hold,
+                                       carry_hold=carry)
     t3 = time.perf_counter()
     table = criteria_table(outcome, crit, step.insertion_direction is not None)
     failed = [k for k, v in table.items() if not v["ok"]]
@@ -177,7 +185,8 @@ def simulate_placed_step(step: Step, state: AssemblyState, product: Product, geo
                       timing_s={"select": t1 - t0, "build": t2 - t1, "simulate": t3 - t2},
                       press=None if press is None else press.summary(),
                       pose_error=applied, unresolved=unresolved,
-                      partners=None if hold is None else hold.summary())
+                      partners=None if hold is None else hold.summary(),
+                      carry=None if carry is None else carry.summary())
 
 
 def handover_fidelity(fidelity: Fidelity, step: Step) -> Fidelity:

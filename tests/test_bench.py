@@ -98,6 +98,26 @@ def test_bad_sections_are_bad_usage() -> None:
     assert main(["bench", "--sections", "accuracy,nonsense"]) == 2
 
 
+@pytest.mark.parametrize(("argv", "expected"), [
+    ([], "docs/benchmarks.md"),
+    (["--quick"], None),
+    (["--sections", "seed"], None),
+    (["--presets", "balanced"], None),
+    (["--sections", "seed", "--out", "x/b.md"], "x/b.md"),
+])
+def test_only_a_full_run_writes_docs_benchmarks_md_by_default(argv, expected) -> None:
+    # a run of one section once replaced the full run's docs/benchmarks.md with its own table
+    import argparse
+
+    from asmplan.commands import bench as cmd
+
+    parser = argparse.ArgumentParser()
+    cmd.register(parser.add_subparsers())
+    args = parser.parse_args(["bench", *argv])
+    out = cmd.default_out(args)
+    assert (None if out is None else out.as_posix()) == expected
+
+
 def test_seed_section_times_the_workstation_through_the_cli_and_the_library() -> None:
     timing = b.run_seed_timing(runs=1, report_runs=1)
     assert timing.success, timing.failure

@@ -5,8 +5,8 @@ at FAST, motion planning vs direct OMPL, scaling on generated products, scene cu
 throughput, reading a 2,000-part file); prints the tables and writes
 ``docs/benchmarks.md`` and ``docs/benchmarks.png`` (the accuracy-vs-cost plot beside it).
 ``--quick`` (CI): the accuracy scenarios at FAST and BALANCED and the 5 um clearance fit at
-BALANCED (bench/fits.py) only, and nothing is written
-unless ``--out`` is given.
+BALANCED (bench/fits.py) only. ``--quick``, ``--sections`` or ``--presets`` write nothing unless
+``--out`` is given (a part of the run never replaces the full run's docs/benchmarks.md).
 
 Exit codes: 0 every asserted accuracy figure is within its bound, 1 a figure regressed
 (``REGRESSION: <figure> = <value> exceeds bound <bound>`` on stderr), 2 bad usage, or
@@ -93,8 +93,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--quick", action="store_true",
                    help="CI mode: accuracy at fast and balanced only; writes nothing without --out")
     p.add_argument("--out", type=Path, default=None,
-                   help="Markdown file to write (default docs/benchmarks.md in a full run); the plot "
-                        "goes beside it as .png")
+                   help="Markdown file to write (default docs/benchmarks.md in a full run only: with "
+                        "--quick, --sections or --presets nothing is written without --out); the "
+                        "plot goes beside it as .png")
     p.add_argument("--sections", type=_sections, default=None,
                    help=f"comma-separated subset of {','.join(SECTIONS)} "
                         "(default: all; quick: accuracy,fits)")
@@ -103,6 +104,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sizes", type=_sizes, default=SCALING_SIZES,
                    help="part counts of the scaling section (default: %(default)s)")
     p.set_defaults(func=run)
+
+
+def default_out(args: argparse.Namespace) -> Path | None:
+    """Where the Markdown report goes: ``--out``, else docs/benchmarks.md only for a full run.
+
+    A run of some sections or presets (or ``--quick``) writes nothing unless ``--out`` is given,
+    so that it never replaces the full run's docs/benchmarks.md with a part of its tables.
+    """
+    if args.out is not None:
+        return Path(args.out)
+    if args.quick or args.sections or args.presets:
+        return None
+    return Path("docs/benchmarks.md")
 
 
 # Complexity above C (radon): one block per benchmark section, in the order the report prints them.
@@ -115,9 +129,13 @@ def run(args: argparse.Namespace) -> int:
         return 2
     sections = args.sections or (("accuracy", "fits") if args.quick else SECTIONS)
     presets = args.presets or (("fast", "balanced") if args.quick else ("fast", "balanced", "accurate"))
-    out = args.out if args.out is not None else (None if args.quick else Path("docs/benchmarks.md"))
+    out = default_out(args)
     t_start = time.perf_counter()
     argv = ["asmplan", "bench"] + (["--quick"] if args.quick else [])
+    if args.sections:
+        argv += ["--sections", ",".join(args.sections)]
+    if args.presets:
+        argv += ["--presets", ",".join(args.presets)]
     rep = b.BenchReport(quick=args.quick, machine=b.machine_description(),
                         started=time.strftime("%Y-%m-%d %H:%M %Z"), command=" ".join(argv))
 

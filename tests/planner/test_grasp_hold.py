@@ -141,3 +141,28 @@ def test_contact_tilted_from_the_squeeze_leaves_less_friction():
     assert steep.friction(mu) == 0.0
     assert math.isinf(hold_requirement(steep, steep, np.zeros(3), M, 0.0, mu, SF,
                                        DOWN_IN_PLANE).required_N)
+
+
+def test_line_contacts_hold_a_moment_about_the_line_by_the_friction_couple():
+    """Two lines along x (a cylinder pinched across its diameter, its axis along x), the
+    centre of mass a lever d beyond them along z, gravity along the closing axis: moment
+    m g d about the lines. The normal forces cannot shift across a line (infinite without
+    the width); the pads' friction, f_1 = -f_2 along z, makes the couple f w across the grip
+    width w: each pad needs f = m g d / w <= mu F, so F = sf m g d / (mu w)."""
+    d, w = 0.003, 0.02
+    line = ContactPatch(_line(0.004, along=0), 0.0)
+    down_c = (np.array([0.0, -1.0, 0.0]),)
+    com = np.array([0.0, 0.0, d])
+    assert math.isinf(hold_requirement(line, line, com, M, 0.0, MU, SF, down_c).required_N)
+    req = hold_requirement(line, line, com, M, 0.0, MU, SF, down_c, width_m=w)
+    assert req.required_N == pytest.approx(SF * M * G_M_S2 * d / (MU * w), rel=1e-9)
+    # with the load in the pad plane as well (gravity along z: f_t = m g shared by both
+    # pads, no moment): the classic slip force, the couple adding nothing
+    down_z = (np.array([0.0, 0.0, -1.0]),)
+    req_z = hold_requirement(line, line, com, M, 0.0, MU, SF, down_z, width_m=w)
+    assert req_z.required_N == pytest.approx(SF * M * G_M_S2 / (2 * MU), rel=1e-9)
+    # gravity along the closing axis and an acceleration a along z: each pad carries
+    # m a / 2 along z plus the couple's m g d / w: F = sf m (a / 2 + g d / w) / mu
+    a = 3.0
+    req_a = hold_requirement(line, line, com, M, a, MU, SF, down_c, width_m=w)
+    assert req_a.required_N >= SF * M * (a / 2 + G_M_S2 * d / w) / MU * (1 - 1e-9)

@@ -38,15 +38,12 @@ def test_accurate_at_half_its_step_jams_the_tilted_pin_at_whitneys_depth():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "measured session 11: at ACCURATE's 1/4000 s the pin goes in (12.000 mm). Only one side "
-    "of each wall contact pair carries, whose normals lean 0.065 across the closing axis, and "
-    "the fit contact's solve has no row for the pads' normal direction (the grip's normal "
-    "share, open): the pin is pushed into one pad, the other pad's last contact point slides off as the pin slips up the "
-    "pads (0.87 mm), the loaded pad then takes 10 N against the 0.16 N clamp and the pin "
-    "turns 0.45 deg in the grip to the bore's axis and goes in. At 1/8000 and 1/16000 s "
-    "it jams at 1.117 / 1.116 mm"))
 def test_accurate_jams_the_tilted_pin_at_whitneys_depth():
+    """At ACCURATE's own 1/4000 s (session 12, the pads' normals and friction in the fit
+    contact's solve on the part and the fingers, each pad's face contact filled along the
+    pin: sim/grip_pads.py): jammed at 1.117 mm. Before, the pin went in (12.000 mm): the
+    solve had no row for the pads' normals, the wedge's push across the closing axis drove
+    the pin into one pad and it turned 0.45 deg in the grip."""
     run, whitney = _tilted(ACCURATE)
     assert run.verdict == "jammed", run.reasons
     assert run.depth_m == pytest.approx(whitney, abs=TOL_M), run.reasons

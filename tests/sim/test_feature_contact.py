@@ -6,6 +6,7 @@ capture boundary of an unchamfered pin (issues 16 and 17)."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -148,10 +149,9 @@ _CAPTURE_012_BALANCED = (
     "and stops there (rim_stop, entered 0.016 mm), but the robot's push slides it "
     "6.7 mm up the pads (slip > 2 mm) and the eccentric rim reaction tilts it 0.5 deg "
     "in the sliding grip within 10 ms; it slides off the 18 um crescent and drops "
-    "13 mm in. The pads' friction has its share in the fit solve; their normals (the "
-    "moment the pads' pressure can carry) are solved only in Bullet's step: added as "
-    "rigid rows for one step the pin went 'unstable' (base velocity) or still tipped "
-    "in (finger link velocity, 1.14 deg). ACCURATE stops on the rim")
+    "13 mm in. The pads' normals as rows of the fit solve (sim/grip_pads.py) stop it on "
+    "the rim, but they are off at BALANCED (Fidelity.grip_rows: with them the bundled "
+    "peg jams at 0.1 mm pose errors); ACCURATE (rows on) stops on the rim")
 
 
 @pytest.mark.slow
@@ -174,3 +174,20 @@ def test_capture_boundary_of_an_unchamfered_pin(fid, offset_mm, goes_in):
         assert not outcome.success
         assert entered_depth_m(record) < 0.2e-3
         assert next(f.code for f in outcome.failures) == "rim_stop"
+
+
+def test_least_distance_finds_an_infeasible_set_at_large_multipliers():
+    """The grip rows' normal solve of the gearbox shaft entering bearing_1 on its prism jaws
+    (BALANCED, 11.014 s; 26 rows: its V pads and the bores over-constrain it), infeasible
+    (HiGHS): the NNLS residual's round-off there is 2e-11 at multipliers of 3e4, which an
+    absolute 1e-12 test took for feasible (y then round-off over round-off)."""
+    from scipy.optimize import linprog
+
+    data = np.load(Path(__file__).resolve().parents[1] / "fixtures" / "ldp_infeasible_shaft.npz")
+    G, h = data["G"], data["h"]
+    assert linprog(np.zeros(G.shape[1]), A_ub=-G, b_ub=-h,
+                   bounds=[(None, None)] * G.shape[1]).status == 2  # infeasible
+    assert least_distance(G, h) is None
+    # made feasible (targets lowered by 10): solved, each row met
+    y, lam = least_distance(G, h - 10.0)
+    assert np.all(G @ y >= h - 10.0 - 1e-9) and np.all(lam >= 0)
