@@ -119,9 +119,11 @@ def test_killing_a_run_midway_leaves_the_previous_outdir_intact(tmp_path, sig) -
     assert main(["run", str(example_path("peg_in_hole")), "-o", str(out), "--fidelity", "fast",
                  "--no-report"]) == 0
     before = digest(out)
+    # at BALANCED its simulate stage lasts seconds (at FAST ~1 s, which a loaded machine's
+    # scan of /proc below could outlast: the run then ends before the signal and exits 0)
     proc = subprocess.Popen([sys.executable, "-m", "asmplan", "run", str(example_path("pinhole_station")),
-                             "-o", str(out), "--fidelity", "fast"], stderr=subprocess.PIPE, text=True,
-                            cwd=tmp_path)
+                             "-o", str(out), "--fidelity", "balanced"], stderr=subprocess.PIPE,
+                            text=True, cwd=tmp_path)
     # wait until it is simulating (outputs are being produced), then kill it
     deadline = time.monotonic() + 120
     assert proc.stderr is not None
