@@ -235,10 +235,16 @@ class Fidelity:
         pads take only their friction's share (floating jaws always). ACCURATE: on (its 0.5 deg
         tilted 8 mm / 10 um and 12 mm / 25 um fits jam at 1.117 / 2.704 mm, Whitney 1.181 /
         2.917, instead of going in). BALANCED: off, measured: with the rows the bundled peg
-        at 0.1 mm pose errors jams at 9.7 mm with 3.6 mm of slip in the grip
-        (tests/sim/test_sweep_nominal.py, tests/sim/test_sweep.py's pose sweep): the rows
-        are not yet right for a chamfered capture (docs/physics.md, open). FAST: no fit
-        contact.
+        0.05 mm off along the closing axis jams at 9.709 mm with 3.6 mm of slip in the grip
+        (tests/sim/test_sweep_nominal.py; tests/sim/test_sweep.py's pose sweep likewise).
+        Traced (docs/physics.md, "Why the rows fail the chamfered peg at BALANCED"): the
+        rows make the jaws rigid across the closing axis, so the offset beyond c/2 has
+        nowhere to go (the pin pivots in the pads and jams at the rigid-jaw depth, 9.682 mm;
+        with the friction converged, and at ACCURATE, it stays on the chamfer); without
+        them Bullet's pads absorb it by 27-92 um of penetration. And across the closing
+        axis the rows' friction lets the pin slide 1.2 mm in the pads at no fit load. Open:
+        the cell's lateral compliance, the rows' friction share. Cost at BALANCED: +24 %
+        CPU of the seed job. FAST: no fit contact.
 """
 
     name: str
