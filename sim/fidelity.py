@@ -241,10 +241,12 @@ class Fidelity:
         rows make the jaws rigid across the closing axis, so the offset beyond c/2 has
         nowhere to go (the pin pivots in the pads and jams at the rigid-jaw depth, 9.682 mm;
         with the friction converged, and at ACCURATE, it stays on the chamfer); without
-        them Bullet's pads absorb it by 27-92 um of penetration. And across the closing
-        axis the rows' friction lets the pin slide 1.2 mm in the pads at no fit load. Open:
-        the cell's lateral compliance, the rows' friction share. Cost at BALANCED: +24 %
-        CPU of the seed job. FAST: no fit contact.
+        them Bullet's pads absorb it by 27-92 um of penetration (and tests/sim/test_sweep.py's
+        loose peg 0.3 mm off along the axis goes in with the rows, where it asserts a
+        failure). Open: the cell's lateral compliance. Fixed: the rows' friction, a cone per
+        pad point, let the pin 0.05 mm off across the axis slide 1.2 mm in the pads at no
+        fit load (now shared per pad, :func:`~asmplan.sim.grip_pads.pad_friction_caps`).
+        Cost at BALANCED: +24 % CPU of the seed job. FAST: no fit contact.
 """
 
     name: str

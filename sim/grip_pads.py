@@ -17,14 +17,15 @@ the part to the palm) fought Bullet's pads: a pad was pushed 2 mm out of the par
 What
 ----
 Each pad contact point Bullet holds becomes a row of the one solve: its normal (impulse >= 0)
-and its two tangents (Coulomb, bounded by the friction coefficient times the point's normal
-impulse). A row acts on the part's twist and on the fingers' closing velocity: the fingers
-are force-controlled prismatic joints, so a pad's reaction moves its finger (its mass,
-:attr:`Grip.finger_mass_kg`) and the clamp stays the commanded force (applied by Bullet's
-step, which this correction does not touch). Synchronised jaws (a rack and pinion) move as
-one: one closing degree of freedom of mass ``2 m_f``; the pair cannot move across the closing
-axis, so a push across it is carried by the mechanism between the two pads, as in a real
-parallel gripper. Floating jaws get a degree of freedom each.
+and its two tangents (Coulomb; a pad's points share the friction coefficient times the pad's
+normal impulse evenly, :func:`pad_friction_caps`). A row acts on the part's twist and on the
+fingers' closing velocity: the fingers are force-controlled prismatic joints, so a pad's
+reaction moves its finger (its mass, :attr:`Grip.finger_mass_kg`) and the clamp stays the
+commanded force (applied by Bullet's step, which this correction does not touch).
+Synchronised jaws (a rack and pinion) move as one: one closing degree of freedom of mass
+``2 m_f``; the pair cannot move across the closing axis, so a push across it is carried by the
+mechanism between the two pads, as in a real parallel gripper. Floating jaws get a degree of
+freedom each.
 
 Bullet's own pad impulses of the step (reported per point) are taken out of the part's and
 the fingers' velocities, and the whole set, pads and fit, is solved again exactly
@@ -127,6 +128,9 @@ class PadRows:
         Bullet's impulses of the step, N s.
     finger_velocity : (f,) float array
         The fingers' closing velocities after Bullet's step, m/s.
+    pad : (k,) int array or None
+        Each point's pad (index into ``Grip.pad_links``): the pad's friction capacity is
+        shared by its points (:func:`pad_friction_caps`); None: a cone per point.
     """
 
     normal: np.ndarray
@@ -136,6 +140,7 @@ class PadRows:
     bullet_normal: np.ndarray
     bullet_tangent: np.ndarray
     finger_velocity: np.ndarray
+    pad: np.ndarray | None = None
 
 
 def cross_rows(a: np.ndarray, b: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
@@ -278,7 +283,32 @@ def pad_rows(world: BulletWorld, grip: Grip, held_body: int, c_held: np.ndarray,
     fr = con.friction_on_a_N * dt
     p_b = np.column_stack([np.sum(fr * t1, axis=1), np.sum(fr * t2, axis=1)])
     target = np.column_stack([np.sum(t1 * v_palm, axis=1), np.sum(t2 * v_palm, axis=1)])
-    return PadRows(J, bound, T, target, lam_b, p_b, finger_velocity)
+    return PadRows(J, bound, T, target, lam_b, p_b, finger_velocity, which)
+
+
+def pad_friction_caps(mu: np.ndarray, lam: np.ndarray, k: int, pad: np.ndarray | None
+                      ) -> np.ndarray:
+    """Each row's friction bound (k + kp,): ``mu x`` its normal impulse for the fit's k rows;
+    a pad's points share their pad's ``mu x`` total normal impulse evenly (``pad`` (kp,):
+    each point's pad; None: ``mu x`` its own, a cone per point).
+
+    Why: a flat pad's points on one line or patch carry a statically indeterminate normal
+    load, and the exact normal solve returns a vertex of its solution set: one point per pad
+    carries it all, a different one from round to round as the friction changes. With a cone
+    per point the friction the last sweep built sat on points the next normal solve had
+    unloaded, was cut to zero and started again: the 0.05 mm-off bundled peg (across the
+    closing axis, BALANCED with the rows) slid 1.2 mm down its pads under its 0.24 N weight
+    against 0.67 N of capacity (friction 0.01-0.4 N), 1.1 mm with 60 rounds; angle_bracket's
+    knob chattered across the closing axis and left its post (docs/physics.md). Evenly shared
+    is the uniformly loaded face the pads' torsional friction already assumes
+    (``pad_torsion_radius_m``): slip 0.041 mm, the knob seated."""
+    cap = mu * lam
+    if pad is None:
+        return cap
+    for i in np.unique(pad).tolist():
+        rows = k + np.flatnonzero(pad == i)
+        cap[rows] = mu[rows] * (lam[rows].sum() / rows.size)
+    return cap
 
 
 @dataclass(frozen=True)
@@ -365,7 +395,6 @@ def solve_with_pads(Jn: np.ndarray, fit_bound: np.ndarray, Jt: np.ndarray, fit_m
     x0 = x0 - Minv @ (pads.normal.T @ pads.bullet_normal)
     x0 = x0 - np.einsum("kai,ki->a", MT[k:], pads.bullet_tangent)
     q = np.concatenate([np.zeros((k, 2)), pads.bullet_tangent], axis=0)
-    used = np.zeros(k + kp)
     rows = (list(Tall), list(MT), list(Winv), list(t_target))  # per-row views, listed once
     G = J @ S
     slack = np.zeros((k + kp, kp))
@@ -391,7 +420,7 @@ def solve_with_pads(Jn: np.ndarray, fit_bound: np.ndarray, Jt: np.ndarray, fit_m
         lam = lam_new
         if rnd == rounds - 1 or change <= GRIP_TOLERANCE * scale:
             break
-        cap = np.sqrt(np.maximum(0.0, (mu * lam) ** 2 - used ** 2))
+        cap = pad_friction_caps(mu, lam, k, pads.pad)
         active = np.flatnonzero((cap > 0) | np.any(q != 0.0, axis=1)).tolist()
         q_new, x = _sweep(active, x, list(q), cap.tolist(), rows)
         dq = float(np.abs(q_new - q).max(initial=0.0))
@@ -399,7 +428,7 @@ def solve_with_pads(Jn: np.ndarray, fit_bound: np.ndarray, Jt: np.ndarray, fit_m
     # what the last normal solve bears (the velocity keeps the sweep's impulses, as the fit
     # contact's own solve does)
     norm = np.linalg.norm(q, axis=1)
-    cap = np.sqrt(np.maximum(0.0, (mu * lam) ** 2 - used ** 2))
+    cap = pad_friction_caps(mu, lam, k, pads.pad)
     over = norm > cap
     if np.any(over):
         q[over] *= (cap[over] / np.maximum(norm[over], 1e-300))[:, None]
@@ -440,4 +469,5 @@ def apply_fingers(world: BulletWorld, grip: Grip, solved: GripSolution, dt: floa
 
 
 __all__ = ["Grip", "GripSolution", "PadRows", "apply_fingers", "cross_rows", "grip_share",
-           "pad_rows", "solve_with_pads", "synchronised_grip", "tangent_rows"]
+           "pad_friction_caps", "pad_rows", "solve_with_pads", "synchronised_grip",
+           "tangent_rows"]
