@@ -165,6 +165,7 @@ class HeldFitContact:
         self._tangents_of = LastCall(tangent_rows)
         self._base_rows: LastCall[tuple, np.ndarray] = LastCall(self._rows_at_base)
         self._deferred = DeferredReuse(self)
+        self.partner_steps = 0  # steps whose correction the partner took (_partner_moves)
 
     def set_grip(self, gripper_body: int, pad_links: Sequence[int], pad_friction: float,
                  synchronised: bool = False, finger_mass_kg: float = 0.0,
@@ -393,6 +394,8 @@ class HeldFitContact:
                 return
         Minv_sqrt = self._minv_sqrt(R_prev)
         mu = self.friction[owner]
+        if self._partner_moves(found, owner, mu, c_prev, u, dt):
+            return
         gripped = (None if self._grip_rows is None else grip_share(
             world, self._grip_rows, self.held_body, found.point_m, found.normal, found.gap_m,
             mu, T_prev, c_prev, u, Minv_sqrt, dt, GRIP_ROUNDS))
@@ -423,6 +426,79 @@ class HeldFitContact:
         self.steps_solved += 1
         # this step's impulses as forces: made when asked for (sim/fit_forces.py)
         self._solved = SolvedStep(found, owner, lam_n, p_t, t1, t2, dt)
+
+    def _partner_moves(self, found: FitContact, owner: np.ndarray, mu: np.ndarray,
+                       c_held: np.ndarray, u_held: np.ndarray, dt: float) -> bool:
+        """A held body over a dynamic partner: when the grip can carry the contact, the held
+        body keeps Bullet's step (its pads hold it to the gripper) and the partner takes the
+        whole correction in this step. Returns whether it did (the caller returns).
+
+        The fit's rows are solved on the partner's twist relative to the held body's rigid
+        motion (``u_held`` (6,), ``c_held`` (3,) its centre of mass before the step), in the
+        partner's mass metric (:meth:`_solve_velocity` with the normals flipped), the
+        partner's velocity and pose corrected by the change (its pose re-integrated from
+        Bullet's by ``dt`` times it, as the held body's). The impulses are this step's
+        contact forces; no reaction is applied to the partner next step (its velocity has
+        it). Done only when every point's partner is the same dynamic body and the wrench of
+        the impulses on the held body is within the grip's holding capacity
+        (:func:`grip_utilisation` <= 1); otherwise the held body is solved as before (it
+        moves in the grip, the partner gets the reaction one step late).
+
+        Why: solved as a body the pads hold only through Bullet's step a step before, the
+        held body moved in the grip instead of the partner. The pneumatic front cap (hole
+        side, its bore chamfer on the rod's sagging end) turned 1.8 deg in its fingers within
+        80 ms at 0.2 N of fit force (< 5 mN m, against 0.22 N m of grip torsion) and did not
+        lift the rod (0.44 N needed); the fit's rows against a partner static within the
+        solve admit no solution with the part held, so the friction rounds only grew the
+        impulse (11.5 N after 1,000 rounds) while the part turned on."""
+        partners = {self.pairs[i].partner for i in owner.tolist()}
+        if len(partners) != 1 or self._grip is None:
+            return False
+        b = partners.pop()
+        if not self._dynamic.get(b, False):
+            return False
+        world = self.world
+        con = world.contacts(self.held_body, self._grip[0])
+        on_pad = np.isin(con.link_b, self._grip[1]) & (con.normal_force_N > 0.0)
+        if not np.any(on_pad):
+            return False
+        mass, T_li, I_link = world.rigid_properties(b)
+        T_p = world.pose(b)
+        R_p = T_p[:3, :3]
+        c_p = R_p @ T_li[:3, 3] + T_p[:3, 3]
+        v_p, w_p = world.velocity(b)
+        v_held_at = u_held[:3] + np.cross(u_held[3:], c_p - c_held)
+        u_rel = np.concatenate([v_p - v_held_at, w_p - u_held[3:]])
+        R_i = R_p @ T_li[:3, :3]
+        ev, V = np.linalg.eigh(R_i @ I_link @ R_i.T)
+        Minv_sqrt = np.zeros((6, 6))
+        Minv_sqrt[:3, :3] = np.eye(3) / math.sqrt(mass)
+        Minv_sqrt[3:, 3:] = V @ np.diag(1.0 / np.sqrt(ev)) @ V.T
+        flipped = FitContact(found.point_m, -found.normal, found.gap_m, found.single_feature)
+        u_new, lam_n, p_t, t1, t2 = self._solve_velocity(flipped, mu, c_p, u_rel, Minv_sqrt, dt)
+        # the force on the held body at each point: the partner's, reversed
+        f_held = (lam_n[:, None] * found.normal - p_t[:, :1] * t1 - p_t[:, 1:] * t2) / dt
+        if grip_utilisation(con.select(on_pad), self._grip[2], f_held, found.point_m) > 1.0:
+            return False
+        du = u_new - u_rel
+        c_new = c_p + dt * du[:3]
+        wn = _norm(du[3:])
+        R_new = (rotation_about(du[3:] / wn, wn * dt) @ R_p) if wn > 0 else R_p
+        T_new = np.eye(4)
+        T_new[:3, :3] = R_new
+        T_new[:3, 3] = c_new - R_new @ T_li[:3, 3]
+        world.set_pose(b, T_new)
+        world.set_velocity(b, v_p + du[:3], w_p + du[3:])
+        self._T_partner[b] = T_new
+        self._base = None
+        self._T_prev = world.pose(self.held_body)
+        self._found = None
+        self.steps_solved += 1
+        self.partner_steps += 1
+        self._solved = SolvedStep(found, owner, lam_n, -p_t, t1, t2, dt)
+        self._forces()
+        self._reaction = []  # the partner's velocity has it
+        return True
 
     def _forces(self) -> None:
         """:attr:`_last` and :attr:`_reaction` from the last solve, if not made yet."""
@@ -573,6 +649,64 @@ class HeldFitContact:
             if found[0].count == 0 or float(np.min(found[0].gap_m)) >= -PROJECTION_TOLERANCE_M:
                 break
         return T, found
+
+
+def grip_utilisation(pads: Contacts, mu: float, force_N: np.ndarray, point_m: np.ndarray
+                     ) -> float:
+    """How much of a grip's holding capacity a set of forces on the held body takes (<= 1:
+    the pads carry it while sticking), on top of what Bullet's step left them.
+
+    ``pads``: the pad contact points Bullet holds (normals ``normal_on_b`` along each pad's
+    closing direction, forces N); ``mu``: their combined Coulomb coefficient; ``force_N``
+    (k, 3) at ``point_m`` (k, 3). The forces' wrench about the pads' centre (normal-force
+    weighted) is split along the closing axis a (the pads' mean normal, sign-free) and
+    across it, each part against its own capacity, and the shares summed (a linear
+    interaction, conservative):
+
+    * force across a: friction, mu sum N minus the friction Bullet's step used (|sum f|);
+    * force along a: the lesser pad's normal force (it may unload that much);
+    * moment about a: each pad's torsion, mu N_pad rho_pad, rho_pad the normal-force weighted
+      mean distance of its points from their centre (the pressure spread: 2.1 mm on the
+      pneumatic front cap's 40 mm flange, 0.22 N m for both pads at 68.5 N each, as the
+      analytic mu F r_t x 2 = 0.75 x 64 N x 2.3 mm x 2);
+    * moment across a: opposite friction on the two pads, mu N_min d, d their distance.
+    """
+    N = pads.normal_force_N
+    links = np.unique(pads.link_b)
+    n = pads.normal_on_b
+    ref = n[int(np.argmax(N))]
+    a = np.sum(np.where((n @ ref)[:, None] >= 0.0, n, -n) * N[:, None], axis=0)
+    a = a / max(_norm(a), 1e-300)
+    centre = np.sum(pads.position_on_a_m * N[:, None], axis=0) / float(np.sum(N))
+    F = np.sum(force_N, axis=0)
+    M = np.sum(np.cross(point_m - centre, force_N), axis=0)
+    f_used = _norm(np.sum(pads.friction_on_a_N, axis=0))
+    per_pad, torsion, centres = [], 0.0, []
+    for link in links.tolist():
+        sel = pads.link_b == link
+        Np = N[sel]
+        total = float(np.sum(Np))
+        c = np.sum(pads.position_on_a_m[sel] * Np[:, None], axis=0) / total
+        r = pads.position_on_a_m[sel] - c
+        r = r - np.outer(r @ a, a)
+        rho = float(np.sum(Np * np.sqrt(np.sum(r * r, axis=1)))) / total
+        torsion += mu * total * rho
+        per_pad.append(total)
+        centres.append(c)
+    n_min = min(per_pad) if len(per_pad) > 1 else 0.0
+    d = _norm(centres[0] - centres[-1]) if len(centres) > 1 else 0.0
+    F_a = abs(float(F @ a))
+    F_t = _norm(F - (F @ a) * a)
+    M_a = abs(float(M @ a))
+    M_t = _norm(M - (M @ a) * a)
+
+    def share(load: float, capacity: float) -> float:
+        if load == 0.0:
+            return 0.0
+        return load / capacity if capacity > 0.0 else math.inf
+
+    return (share(F_t, mu * float(np.sum(N)) - f_used) + share(F_a, n_min)
+            + share(M_a, torsion) + share(M_t, mu * n_min * d))
 
 
 def _make_empty_contacts() -> Contacts:
