@@ -46,7 +46,9 @@ every other body keep Bullet's contact.
 The grip. Bullet solves the pads against the held body a step before this model. With
 synchronised jaws their normals and friction join this model's solve on the part and the
 fingers (:mod:`asmplan.sim.grip_pads`); with floating jaws only their friction, with what
-their cones have left (:meth:`HeldFitContact.set_grip`). Known limits (measured, open): a
+their cones have left (:meth:`HeldFitContact.set_grip`). Over a dynamic partner (a cap slid
+over a loose rod) the held body keeps Bullet's step and the partner takes the correction while
+the grip can carry the contact (:meth:`HeldFitContact._partner_moves`). Known limits (measured, open): a
 step into free space is kept as Bullet took it; the block's face is a disc out to the
 solid's farthest vertex (docs/physics.md, "Exact fit contact")."""
 
