@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
+from asmplan.sim.contacts import Contacts
 from asmplan.sim.feature_contact import least_distance
 from asmplan.sim.fidelity import ACCURATE, BALANCED
 from asmplan.sim.fit_geometry import BoreFeature, FitContactModel, PinFeature, revolved_sdf
@@ -191,3 +192,41 @@ def test_least_distance_finds_an_infeasible_set_at_large_multipliers():
     # made feasible (targets lowered by 10): solved, each row met
     y, lam = least_distance(G, h - 10.0)
     assert np.all(G @ y >= h - 10.0 - 1e-9) and np.all(lam >= 0)
+
+
+def _two_pads(spread_m: float, normal_N: float) -> Contacts:
+    """Two pads at y = +-20 mm, normals along y onto the part, each holding it at two points
+    +-``spread_m`` along x with ``normal_N`` each, no friction used."""
+    x = np.array([spread_m, -spread_m, spread_m, -spread_m])
+    y = np.array([20e-3, 20e-3, -20e-3, -20e-3])
+    p = np.column_stack([x, y, np.zeros(4)])
+    n = np.array([[0, -1.0, 0], [0, -1.0, 0], [0, 1.0, 0], [0, 1.0, 0]])
+    return Contacts(np.zeros(4, dtype=int), np.zeros(4, dtype=int), np.array([0, 0, 1, 1]), p, p,
+                    n, np.zeros(4), np.full(4, normal_N), np.zeros((4, 3)))
+
+
+def test_grip_utilisation_against_the_pads_analytic_capacities():
+    """The grip's holding capacity (feature_contact.grip_utilisation) per load: a moment about
+    the closing axis against the pads' torsion mu N rho x 2 (rho their points' spread), a force
+    across it against mu sum N, a moment across it against mu N_min d; shares add."""
+    from asmplan.sim.feature_contact import grip_utilisation
+
+    mu, spread, N = 0.75, 4.5e-3, 34.25
+    pads = _two_pads(spread, N)
+    torsion = 2 * mu * (2 * N) * spread  # 0.462 N m
+    # a couple of 0.1 N m about y: +-F along z at x = +-10 mm
+    F = 0.1 / 0.02
+    f = np.array([[0, 0, -F], [0, 0, F]])
+    p = np.array([[10e-3, 0, 0], [-10e-3, 0, 0]])
+    assert grip_utilisation(pads, mu, f, p) == pytest.approx(0.1 / torsion, rel=1e-12)
+    # 10 N across the closing axis through the pads' centre
+    assert grip_utilisation(pads, mu, np.array([[10.0, 0, 0]]), np.zeros((1, 3))) == (
+        pytest.approx(10.0 / (mu * 4 * N), rel=1e-12))
+    # 0.5 N m about x (across the closing axis): opposite friction on pads 40 mm apart
+    f = np.array([[0, 0, 25.0], [0, 0, -25.0]])
+    p = np.array([[0, 10e-3, 0], [0, -10e-3, 0]])
+    assert grip_utilisation(pads, mu, f, p) == pytest.approx(0.5 / (mu * 2 * N * 0.04), rel=1e-12)
+    # a pad held at one point has no torsion: any moment about the closing axis is beyond it
+    one = _two_pads(0.0, N)
+    f = np.array([[0, 0, -1e-3], [0, 0, 1e-3]])
+    assert grip_utilisation(one, mu, f, np.array([[1e-3, 0, 0], [-1e-3, 0, 0]])) == math.inf
