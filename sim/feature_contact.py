@@ -46,7 +46,8 @@ every other body keep Bullet's contact.
 The grip. Bullet solves the pads against the held body a step before this model. With
 synchronised jaws their normals and friction join this model's solve on the part and the
 fingers (:mod:`asmplan.sim.grip_pads`); with floating jaws only their friction, with what
-their cones have left (:meth:`HeldFitContact.set_grip`). Over a dynamic partner (a cap slid
+their cones have left (:meth:`HeldFitContact.set_grip`), solved with the fit as one exact
+problem (:mod:`asmplan.sim.fit_grip_qp`). Over a dynamic partner (a cap slid
 over a loose rod) the held body keeps Bullet's step and the partner takes the correction while
 the grip can carry the contact (:meth:`HeldFitContact._partner_moves`). Known limits (measured, open): a
 step into free space is kept as Bullet took it; the block's face is a disc out to the
@@ -66,6 +67,7 @@ from .contacts import Contacts
 from .fit_clear import DeferredReuse
 from .fit_forces import SolvedStep, solved_forces
 from .fit_geometry import FitContact, FitContactModel
+from .fit_grip_qp import solve_fit_with_pad_friction
 from .fit_ldp import least_distance
 from .fit_memo import LastCall
 from .grip_pads import Grip, apply_fingers, cross_rows, grip_share, synchronised_grip, tangent_rows
@@ -163,6 +165,7 @@ class HeldFitContact:
                           dict[int, np.ndarray] | None] | None = None
         self._grip: tuple[int, tuple[int, ...], float] | None = None
         self._grip_rows: Grip | None = None
+        self._floating = False  # floating jaws: the pads' friction solved exactly with the fit
         # the same every step while a detection is reused (asmplan.sim.fit_memo)
         self._tangents_of = LastCall(tangent_rows)
         self._base_rows: LastCall[tuple, np.ndarray] = LastCall(self._rows_at_base)
@@ -179,6 +182,7 @@ class HeldFitContact:
         (``pad_size_m``) filled along its face (:mod:`asmplan.sim.grip_pads`)."""
         mu = float(pad_friction) * self.world.lateral_friction(self.held_body)
         self._grip = (int(gripper_body), tuple(int(k) for k in pad_links), mu)
+        self._floating = not synchronised
         if synchronised:
             self._grip_rows = synchronised_grip(self.world, *self._grip, finger_mass_kg,
                                                 pad_size_m, self.held_body)
@@ -401,9 +405,19 @@ class HeldFitContact:
         gripped = (None if self._grip_rows is None else grip_share(
             world, self._grip_rows, self.held_body, found.point_m, found.normal, found.gap_m,
             mu, T_prev, c_prev, u, Minv_sqrt, dt, GRIP_ROUNDS))
-        if gripped is None:
+        pads = None if gripped is not None else self._pad_rows(c_prev, dt)
+        exact = gripped is None and pads is not None and self._floating  # sim/fit_grip_qp.py
+        if gripped is None and not exact:
             u_new, lam_n, p_t, t1, t2 = self._solve_velocity(
-                found, mu, c_prev, u, Minv_sqrt, dt, self._pad_rows(c_prev, dt))
+                found, mu, c_prev, u, Minv_sqrt, dt, pads)
+        elif gripped is None:
+            assert pads is not None
+            t1, t2 = self._tangents_of(found.normal)
+            Jt = np.stack([self._rows(found.point_m, t1, c_prev),
+                           self._rows(found.point_m, t2, c_prev)], axis=1)
+            u_new, lam_n, p_t = solve_fit_with_pad_friction(
+                self._rows(found.point_m, found.normal, c_prev), found.gap_m, Jt, mu,
+                found.gap_m <= FRICTION_GAP_M, *pads, u, Minv_sqrt, dt)
         else:
             u_new, lam_n, p_t = gripped.twist, gripped.fit_normal, gripped.fit_tangent
             t1, t2 = gripped.t1, gripped.t2

@@ -46,14 +46,6 @@ def test_jam_scene_geometry_is_exact_with_a_direct_solver(clearance_mm, tilt_deg
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "model defect since 541249a (the pads' friction takes its share of the fit-contact solve; "
-    "reverting it alone restores 'jammed at 10.393 mm', tilt 2.66 deg): the pin turns 5.51 deg "
-    "across the pads in a burst at first contact (1.5 rad/s relative to the gripper) and goes "
-    "in ('rotational slip'). Not physical: the grip holds ~0.02 N m by pad friction plus up to "
-    "~0.09 N m by pad pressure against a ~0.024 N m two-point couple at the 2.37 N push, and a "
-    "stronger clamp turns it more (10 N: 11.94 deg). The pads' pressure acts only in Bullet's "
-    "next step, not in the solve (docs/physics.md, Exact fit contact, open)"))
 def test_jammed_verdict_carries_the_two_contact_points():
     """A 10 mm pin held 5 deg off the hole's axis (0.5 mm diametral clearance, no chamfer),
     its tip placed over the hole: it wedges. The verdict names the two contacts holding it:

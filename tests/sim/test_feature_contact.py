@@ -230,3 +230,32 @@ def test_grip_utilisation_against_the_pads_analytic_capacities():
     one = _two_pads(0.0, N)
     f = np.array([[0, 0, -1e-3], [0, 0, 1e-3]])
     assert grip_utilisation(one, mu, f, np.array([[1e-3, 0, 0], [-1e-3, 0, 0]])) == math.inf
+
+
+def test_fit_with_pad_friction_yields_at_the_pads_capacity():
+    """sim/fit_grip_qp.py: a 1 kg body driven at 10 mm/s by its pads into a wall (a fit row at
+    its centre, gap 0) cannot both stick and stay out: the pads slide at their bound (the
+    square inscribed in Coulomb's disc, c / sqrt 2 along the slip) and the wall takes the body's
+    momentum plus that, lambda = m v + c / sqrt 2, the body stopped. Clear of the wall the pads
+    hold it to the gripper's velocity; a free body against the wall is the least-distance
+    solve's."""
+    from asmplan.sim.fit_grip_qp import solve_fit_with_pad_friction
+
+    v, dt, cap = 0.01, 1e-3, 0.004  # m/s, s, N s
+    u = np.array([v, 0, 0, 0, 0, 0])
+    Jn = np.array([[-1.0, 0, 0, 0, 0, 0]])
+    Jt = np.array([[[0, 1.0, 0, 0, 0, 0], [0, 0, 1.0, 0, 0, 0]]])
+    P = np.array([[[1.0, 0, 0, 0, 0, 0], [0, 0, 1.0, 0, 0, 0]]])  # the pad at the centre
+    v_pad = np.array([[v, 0.0]])
+    args = (Jt, np.array([0.5]), np.array([True]), P, v_pad, np.array([cap]), u, np.eye(6), dt)
+    u_new, lam, _ = solve_fit_with_pad_friction(Jn, np.zeros(1), *args)
+    assert lam[0] == pytest.approx(1.0 * v + cap / math.sqrt(2.0), rel=1e-5)
+    assert abs(u_new[0]) < 1e-7  # stopped at the wall (the regularisation's eps p)
+    # clear of the wall by more than a step's travel: held to the gripper, no wall impulse
+    u_new, lam, _ = solve_fit_with_pad_friction(Jn, np.array([1e-3]), *args)
+    assert lam[0] == 0.0 and u_new[0] == pytest.approx(v, rel=1e-6)
+    # no pad: the least-distance solve of the fit alone
+    none = (Jt, np.array([0.5]), np.array([True]), np.zeros((0, 2, 6)), np.zeros((0, 2)),
+            np.zeros(0), u, np.eye(6), dt)
+    u_new, lam, _ = solve_fit_with_pad_friction(Jn, np.zeros(1), *none)
+    assert lam[0] == pytest.approx(v, rel=1e-5) and abs(u_new[0]) < 1e-7
