@@ -281,7 +281,8 @@ def execute_step(
         fit_contact.set_grip(gripper.body, FINGER_LINKS, spec.pad_friction,
                              spec.synchronised and fid.grip_rows,
                              spec.finger_mass_kg,
-                             None if spec.pad_groove_depth_m > 0.0 else spec.pad_size_m)
+                             None if spec.pad_groove_depth_m > 0.0 else spec.pad_size_m,
+                             floating=not spec.synchronised)
 
     def part_contacts() -> Contacts:
         con = world.contacts(part_body)

@@ -174,15 +174,18 @@ class HeldFitContact:
 
     def set_grip(self, gripper_body: int, pad_links: Sequence[int], pad_friction: float,
                  synchronised: bool = False, finger_mass_kg: float = 0.0,
-                 pad_size_m: Sequence[float] | None = None) -> None:
+                 pad_size_m: Sequence[float] | None = None, floating: bool = False) -> None:
         """The gripper whose pads hold the body: their friction takes its share of each step's
         solve (:meth:`_pad_rows`; ``pad_friction`` combined with the body's by product).
         Synchronised jaws (finger 1 closing along -y, finger 2 along +y, ``finger_mass_kg``
         each): normals and friction on the part and fingers, a flat pad's contact
-        (``pad_size_m``) filled along its face (:mod:`asmplan.sim.grip_pads`)."""
+        (``pad_size_m``) filled along its face (:mod:`asmplan.sim.grip_pads`); ``synchronised``
+        says whether to use those rows. Floating jaws (``floating``, each finger on its own
+        force-controlled joint): their friction solved exactly with the fit
+        (:mod:`asmplan.sim.fit_grip_qp`)."""
         mu = float(pad_friction) * self.world.lateral_friction(self.held_body)
         self._grip = (int(gripper_body), tuple(int(k) for k in pad_links), mu)
-        self._floating = not synchronised
+        self._floating = bool(floating) and not synchronised
         if synchronised:
             self._grip_rows = synchronised_grip(self.world, *self._grip, finger_mass_kg,
                                                 pad_size_m, self.held_body)
@@ -490,8 +493,20 @@ class HeldFitContact:
         Minv_sqrt = np.zeros((6, 6))
         Minv_sqrt[:3, :3] = np.eye(3) / math.sqrt(mass)
         Minv_sqrt[3:, 3:] = V @ np.diag(1.0 / np.sqrt(ev)) @ V.T
-        flipped = FitContact(found.point_m, -found.normal, found.gap_m, found.single_feature)
-        u_new, lam_n, p_t, t1, t2 = self._solve_velocity(flipped, mu, c_p, u_rel, Minv_sqrt, dt)
+        # the partner's own supports (Bullet's contacts with every other body, touching):
+        # the correction may not push it further into them than Bullet's step left it
+        sup = world.contacts(b)
+        keep = ((sup.body_b != self.held_body) & (sup.body_b != self._grip[0])
+                & ((sup.normal_force_N > 0.0) | (sup.distance_m <= 0.0)))
+        sp, sn = sup.position_on_a_m[keep], sup.normal_on_b[keep]
+        now = np.sum(sn * (u_rel[:3] + cross_rows(np.broadcast_to(u_rel[3:], sp.shape),
+                                                  sp - c_p)), axis=1)
+        k = found.count
+        rows = FitContact(np.vstack([found.point_m, sp]), np.vstack([-found.normal, sn]),
+                          np.concatenate([found.gap_m, -dt * now]), False)
+        u_new, lam_n, p_t, t1, t2 = self._solve_velocity(
+            rows, np.concatenate([mu, np.zeros(sp.shape[0])]), c_p, u_rel, Minv_sqrt, dt)
+        lam_n, p_t, t1, t2 = lam_n[:k], p_t[:k], t1[:k], t2[:k]
         # the force on the held body at each point: the partner's, reversed
         f_held = (lam_n[:, None] * found.normal - p_t[:, :1] * t1 - p_t[:, 1:] * t2) / dt
         if grip_utilisation(con.select(on_pad), self._grip[2], f_held, found.point_m) > 1.0:
