@@ -456,9 +456,10 @@ class HeldFitContact:
         motion (``u_held`` (6,), ``c_held`` (3,) its centre of mass before the step), in the
         partner's mass metric (:meth:`_solve_velocity` with the normals flipped), the
         partner's velocity and pose corrected by the change (its pose re-integrated from
-        Bullet's by ``dt`` times it, as the held body's). The impulses are this step's
-        contact forces; no reaction is applied to the partner next step (its velocity has
-        it). Done only when every point's partner is the same dynamic body and the wrench of
+        Bullet's by ``dt`` times it, as the held body's), its touching contacts with every
+        other body rows it may not be pushed further into (frictionless). The impulses are
+        this step's contact forces; no reaction is applied to the partner next step (its
+        velocity has it). Done only when every point's partner is the same dynamic body and the wrench of
         the impulses on the held body is within the grip's holding capacity
         (:func:`grip_utilisation` <= 1); otherwise the held body is solved as before (it
         moves in the grip, the partner gets the reaction one step late).
