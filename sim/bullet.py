@@ -1184,6 +1184,12 @@ class BulletWorld:
                                   maxForce=self._S * float(max_force_N), physicsClientId=cid)
         return cons
 
+    def set_coupling_offset(self, cons: int, offset_m: float) -> None:
+        """Hold the joints coupled by :meth:`couple_joints` at ``q_a - q_b = offset_m`` (m)
+        instead of equal travel (Bullet's gear constraint's ``relativePositionTarget``)."""
+        pybullet.changeConstraint(cons, relativePositionTarget=self._S * float(offset_m),
+                                  physicsClientId=self.client_id)
+
     # ---------------------------------------------------------------- stepping and state
     def step(self, n: int = 1) -> None:
         """Advance the simulation by ``n`` steps of ``fidelity.dt_s``."""

@@ -282,7 +282,9 @@ def execute_step(
                              spec.synchronised and fid.grip_rows,
                              spec.finger_mass_kg,
                              None if spec.pad_groove_depth_m > 0.0 else spec.pad_size_m,
-                             floating=not spec.synchronised)
+                             floating=not spec.synchronised,
+                             lateral_stiffness_N_per_m=spec.lateral_stiffness_N_per_m,
+                             coupling=gripper.coupling)
 
     def part_contacts() -> Contacts:
         con = world.contacts(part_body)

@@ -174,21 +174,28 @@ class HeldFitContact:
 
     def set_grip(self, gripper_body: int, pad_links: Sequence[int], pad_friction: float,
                  synchronised: bool = False, finger_mass_kg: float = 0.0,
-                 pad_size_m: Sequence[float] | None = None, floating: bool = False) -> None:
+                 pad_size_m: Sequence[float] | None = None, floating: bool = False,
+                 lateral_stiffness_N_per_m: float | None = None,
+                 coupling: int | None = None) -> None:
         """The gripper whose pads hold the body: their friction takes its share of each step's
         solve (:meth:`_pad_rows`; ``pad_friction`` combined with the body's by product).
         Synchronised jaws (finger 1 closing along -y, finger 2 along +y, ``finger_mass_kg``
         each): normals and friction on the part and fingers, a flat pad's contact
-        (``pad_size_m``) filled along its face (:mod:`asmplan.sim.grip_pads`); ``synchronised``
-        says whether to use those rows. Floating jaws (``floating``, each finger on its own
-        force-controlled joint): their friction solved exactly with the fit
+        (``pad_size_m``) filled along its face (:mod:`asmplan.sim.grip_pads`), the jaws on a
+        spring across the closing axis when ``lateral_stiffness_N_per_m`` is given (their
+        gear constraint ``coupling`` then holds the shift the solve leaves; it starts at 0);
+        ``synchronised`` says whether to use those rows. Floating jaws (``floating``, each
+        finger on its own force-controlled joint): their friction solved exactly with the fit
         (:mod:`asmplan.sim.fit_grip_qp`)."""
         mu = float(pad_friction) * self.world.lateral_friction(self.held_body)
         self._grip = (int(gripper_body), tuple(int(k) for k in pad_links), mu)
         self._floating = bool(floating) and not synchronised
         if synchronised:
             self._grip_rows = synchronised_grip(self.world, *self._grip, finger_mass_kg,
-                                                pad_size_m, self.held_body)
+                                                pad_size_m, self.held_body,
+                                                lateral_stiffness_N_per_m, coupling)
+            if lateral_stiffness_N_per_m is not None and coupling is not None:
+                self.world.set_coupling_offset(coupling, 0.0)
 
     # ------------------------------------------------------------------ switching
     def activate(self) -> None:

@@ -85,6 +85,14 @@ class Grip:
     finger_mass_kg : float
     synchronised : bool
         The jaws move as one (one closing degree of freedom).
+    lateral_stiffness_N_per_m : float or None
+        Synchronised jaws only: a spring (N/m) on their common shift along the closing axis
+        relative to the palm (the cell's compliance there,
+        :attr:`~asmplan.sim.gripper.GripperSpec.lateral_stiffness_N_per_m`), a second degree
+        of freedom of mass ``2 m_f``; None: rigid across the closing axis.
+    coupling : int or None
+        The synchronising gear constraint (:meth:`BulletWorld.couple_joints`): holds the
+        shift the solve leaves through Bullet's next step.
     """
 
     body: int
@@ -96,6 +104,8 @@ class Grip:
     pad_size_m: tuple[float, float, float] | None = None
     face_signs: tuple[float, ...] = (-1.0, 1.0)
     held_vertices_m: np.ndarray | None = None
+    lateral_stiffness_N_per_m: float | None = None
+    coupling: int | None = None
 
     def __post_init__(self) -> None:
         if len(self.pad_links) != len(self.closing_axes_tcp) or not self.pad_links:
@@ -105,9 +115,18 @@ class Grip:
             raise ValueError(f"Grip.finger_mass_kg: expected > 0, found {self.finger_mass_kg}")
 
     @property
+    def compliant(self) -> bool:
+        """Synchronised jaws with a spring across the closing axis (a shift DOF)."""
+        return self.synchronised and self.lateral_stiffness_N_per_m is not None
+
+    @property
     def dofs(self) -> int:
-        """The fingers' degrees of freedom in the solve."""
-        return 1 if self.synchronised else len(self.pad_links)
+        """The fingers' degrees of freedom in the solve: synchronised jaws' closing (and,
+        :attr:`compliant`, their common shift along finger 1's closing axis), else one a
+        finger."""
+        if self.synchronised:
+            return 2 if self.compliant else 1
+        return len(self.pad_links)
 
 
 @dataclass(frozen=True)
@@ -131,6 +150,9 @@ class PadRows:
     pad : (k,) int array or None
         Each point's pad (index into ``Grip.pad_links``): the pad's friction capacity is
         shared by its points (:func:`pad_friction_caps`); None: a cone per point.
+    shift_m : float
+        :attr:`Grip.compliant`: the jaws' common shift along finger 1's closing axis after
+        Bullet's step, m (half the travel difference).
     """
 
     normal: np.ndarray
@@ -141,6 +163,7 @@ class PadRows:
     bullet_tangent: np.ndarray
     finger_velocity: np.ndarray
     pad: np.ndarray | None = None
+    shift_m: float = 0.0
 
 
 def cross_rows(a: np.ndarray, b: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
@@ -171,14 +194,19 @@ def tangent_rows(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def synchronised_grip(world: BulletWorld, gripper_body: int, pad_links: tuple[int, ...],
                       friction: float, finger_mass_kg: float,
-                      pad_size_m: Sequence[float] | None, held_body: int) -> Grip:
+                      pad_size_m: Sequence[float] | None, held_body: int,
+                      lateral_stiffness_N_per_m: float | None = None,
+                      coupling: int | None = None) -> Grip:
     """The :class:`Grip` of a synchronised parallel gripper (finger 1 closing along the TCP's
-    -y, finger 2 along +y), its pads' faces filled against ``held_body``'s pieces."""
+    -y, finger 2 along +y), its pads' faces filled against ``held_body``'s pieces (and its
+    lateral spring, :attr:`Grip.lateral_stiffness_N_per_m`)."""
     size = None if pad_size_m is None else (float(pad_size_m[0]), float(pad_size_m[1]),
                                             float(pad_size_m[2]))
     return Grip(gripper_body, pad_links, ((0.0, -1.0, 0.0), (0.0, 1.0, 0.0)), friction,
                 float(finger_mass_kg), True, size, (-1.0, 1.0),
-                piece_vertices_m(world.body_pieces(held_body)))
+                piece_vertices_m(world.body_pieces(held_body)),
+                None if lateral_stiffness_N_per_m is None else float(lateral_stiffness_N_per_m),
+                coupling)
 
 
 def _tangents(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -238,7 +266,7 @@ def pad_rows(world: BulletWorld, grip: Grip, held_body: int, c_held: np.ndarray,
     T_g = world.pose(grip.body)
     v_g, w_g = world.velocity(grip.body)
     com_g = world.com_position_m(grip.body)
-    _, qd = world.joint_states(grip.body, grip.pad_links)
+    q_f, qd = world.joint_states(grip.body, grip.pad_links)
     if T_held is not None:
         lp, ln, lg, li = _line_points(world, grip, T_held, np.unique(con.link_b), dt,
                                       (T_g, v_g, w_g, com_g, qd))
@@ -264,12 +292,18 @@ def pad_rows(world: BulletWorld, grip: Grip, held_body: int, c_held: np.ndarray,
     v_palm = v_g + cross_rows(np.broadcast_to(w_g, p.shape), p - com_g)
     dof = np.zeros(k, dtype=int) if grip.synchronised else which
     finger_velocity = np.array([float(np.mean(qd))]) if grip.synchronised else qd.copy()
+    shift = 0.0
+    if grip.compliant:  # q = c + s for finger 1, c - s for finger 2: s along finger 1's axis
+        finger_velocity = np.array([float(np.mean(qd)), 0.5 * float(qd[0] - qd[1])])
+        shift = 0.5 * float(q_f[0] - q_f[1])
 
     def rows(d: np.ndarray) -> np.ndarray:
         out = np.zeros((k, 6 + f))
         out[:, :3] = d
         out[:, 3:6] = cross_rows(r, d)
         out[np.arange(k), 6 + dof] = -np.sum(d * axes[which], axis=1)
+        if grip.compliant:
+            out[:, 7] = -(d @ axes[0])
         return out
 
     J = rows(n)
@@ -283,7 +317,7 @@ def pad_rows(world: BulletWorld, grip: Grip, held_body: int, c_held: np.ndarray,
     fr = con.friction_on_a_N * dt
     p_b = np.column_stack([np.sum(fr * t1, axis=1), np.sum(fr * t2, axis=1)])
     target = np.column_stack([np.sum(t1 * v_palm, axis=1), np.sum(t2 * v_palm, axis=1)])
-    return PadRows(J, bound, T, target, lam_b, p_b, finger_velocity, which)
+    return PadRows(J, bound, T, target, lam_b, p_b, finger_velocity, which, shift)
 
 
 def pad_friction_caps(mu: np.ndarray, lam: np.ndarray, k: int, pad: np.ndarray | None
@@ -346,7 +380,7 @@ def grip_share(world: BulletWorld, grip: Grip, held_body: int, points: np.ndarra
     Jt = np.stack([np.hstack([t1, cross_rows(r, t1)]), np.hstack([t2, cross_rows(r, t2)])],
                   axis=1)
     solved = solve_with_pads(Jn, -gaps / dt, Jt, mu, gaps <= FRICTION_GAP_M, u, Minv_sqrt,
-                             pads, grip, rounds)
+                             pads, grip, rounds, dt)
     if solved is None:
         return None
     return GripSolution(solved.twist, solved.finger_velocity, solved.fit_normal,
@@ -355,7 +389,7 @@ def grip_share(world: BulletWorld, grip: Grip, held_body: int, points: np.ndarra
 
 def solve_with_pads(Jn: np.ndarray, fit_bound: np.ndarray, Jt: np.ndarray, fit_mu: np.ndarray,
                     touching: np.ndarray, u: np.ndarray, Minv_sqrt: np.ndarray, pads: PadRows,
-                    grip: Grip, rounds: int) -> GripSolution | None:
+                    grip: Grip, rounds: int, dt: float = 0.0) -> GripSolution | None:
     """The fit's contact (normal rows ``Jn`` (k, 6) with ``Jn u' >= fit_bound``, tangent rows
     ``Jt`` (k, 2, 6), coefficients ``fit_mu`` (k,), friction only where ``touching``) and the
     pads' (:class:`PadRows`) solved together on the part (``u`` (6,), ``Minv_sqrt`` (6, 6) its
@@ -369,7 +403,14 @@ def solve_with_pads(Jn: np.ndarray, fit_bound: np.ndarray, Jt: np.ndarray, fit_m
     gearbox shaft entering bearing_1 on its prism jaws, every few steps. A real cell's robot
     and fingers yield there; solved as infeasible it fell back to the fit alone (jammed 77 mm
     in, 6.9 deg), read as feasible (round-off, :func:`~asmplan.sim.fit_ldp.least_distance`)
-    it gave impulses of 1e10 N s."""
+    it gave impulses of 1e10 N s.
+
+    :attr:`Grip.compliant` jaws: their shift ``s`` (:attr:`PadRows.shift_m`) is a degree of
+    freedom of mass ``m = 2 m_f`` on a spring ``k`` integrated implicitly over ``dt``:
+    ``(m + k dt^2) v' = m v - dt k s + P`` (P the pads' impulses on it), so the solve sees the
+    mass ``m + k dt^2`` and the free velocity ``(m v - dt k s) / (m + k dt^2)``; Bullet's pad
+    impulses of the step went into the coupling (which held the shift), so the shift's
+    velocity after Bullet's step is its velocity before them."""
     f = grip.dofs
     m = 6 + f
     k, kp = Jn.shape[0], pads.normal.shape[0]
@@ -377,6 +418,10 @@ def solve_with_pads(Jn: np.ndarray, fit_bound: np.ndarray, Jt: np.ndarray, fit_m
     S[:6, :6] = Minv_sqrt
     mass = grip.finger_mass_kg * (len(grip.pad_links) if grip.synchronised else 1)
     S[6:, 6:] = np.eye(f) / math.sqrt(mass)
+    k_lat = grip.lateral_stiffness_N_per_m if grip.compliant else None
+    if k_lat is not None:
+        m_s = mass + k_lat * dt * dt
+        S[7, 7] = 1.0 / math.sqrt(m_s)
     Minv = S @ S
     pad = np.zeros((k, m))
     pad[:, :6] = Jn
@@ -394,6 +439,8 @@ def solve_with_pads(Jn: np.ndarray, fit_bound: np.ndarray, Jt: np.ndarray, fit_m
     x0 = np.concatenate([u, pads.finger_velocity])
     x0 = x0 - Minv @ (pads.normal.T @ pads.bullet_normal)
     x0 = x0 - np.einsum("kai,ki->a", MT[k:], pads.bullet_tangent)
+    if k_lat is not None:
+        x0[7] = (mass * pads.finger_velocity[1] - dt * k_lat * pads.shift_m) / m_s
     q = np.concatenate([np.zeros((k, 2)), pads.bullet_tangent], axis=0)
     rows = (list(Tall), list(MT), list(Winv), list(t_target))  # per-row views, listed once
     G = J @ S
@@ -460,12 +507,17 @@ def apply_fingers(world: BulletWorld, grip: Grip, solved: GripSolution, dt: floa
     if solved.bullet_finger_velocity is None:
         return
     dv = solved.finger_velocity - solved.bullet_finger_velocity
-    if not np.any(dv):
+    if not np.any(dv) and not grip.compliant:
         return
     q, qd = world.joint_states(grip.body, grip.pad_links)
-    delta = np.full(len(grip.pad_links), float(dv[0])) if grip.synchronised else dv
-    world.set_joint_states(grip.body, grip.pad_links, (q + dt * delta).tolist(),
-                           (qd + delta).tolist())
+    if grip.compliant:  # closing and shift (finger 1 + s, finger 2 - s)
+        delta = np.array([float(dv[0] + dv[1]), float(dv[0] - dv[1])])
+    else:
+        delta = np.full(len(grip.pad_links), float(dv[0])) if grip.synchronised else dv
+    q_new = q + dt * delta
+    world.set_joint_states(grip.body, grip.pad_links, q_new.tolist(), (qd + delta).tolist())
+    if grip.compliant and grip.coupling is not None:
+        world.set_coupling_offset(grip.coupling, float(q_new[0] - q_new[1]))
 
 
 __all__ = ["Grip", "GripSolution", "PadRows", "apply_fingers", "cross_rows", "grip_share",

@@ -121,6 +121,17 @@ class GripperSpec:
         :attr:`~asmplan.sim.fidelity.Fidelity.carry_anchor`) gear_unit succeeds at
         BALANCED at 0.5 and at 1.0 (wheel 9.2 um / 0.12 mrad off at 1.0), and at either value
         the finger travels stay equal within 0.2 um through a rim contact. 0.5 is kept.
+    lateral_stiffness_N_per_m : float or None
+        Stiffness of the held part's seat across the closing axis relative to the palm, N/m:
+        the cell's compliance there (finger bending, pad compression, jaw guide play, the
+        arm's joints or a compliance device / Cartesian impedance control), as one spring on
+        the synchronised jaws' common shift along the closing axis. None (the default): the
+        jaws are rigid across that axis (a stiff cell, issue 16 item 3). It acts in the grip
+        rows' solve (:attr:`~asmplan.sim.fidelity.Fidelity.grip_rows`, while the fit contact
+        is solved; :mod:`asmplan.sim.grip_pads`) and Bullet's step holds the shift it leaves
+        (the coupling's position target). Sourced figures (docs/physics.md, "The cell's
+        lateral compliance"): a stiff cell's is 1e5-1e6 N/m and more; Cartesian impedance
+        controllers are configured at 150-4000 N/m.
     """
 
     pad_size_m: tuple[float, float, float] = (0.02, 0.006, 0.02)
@@ -142,6 +153,7 @@ class GripperSpec:
     synchronisation_erp: float = 0.5
     pad_groove_angle_rad: float = 0.0
     pad_groove_depth_m: float = 0.0
+    lateral_stiffness_N_per_m: float | None = None
 
     def __post_init__(self) -> None:
         for label in ("pad_size_m", "palm_size_m"):
@@ -163,6 +175,10 @@ class GripperSpec:
         if not (math.isfinite(self.synchronisation_erp) and 0.0 < self.synchronisation_erp <= 1.0):
             raise ValueError("GripperSpec.synchronisation_erp: expected 0 < erp <= 1, found "
                              f"{self.synchronisation_erp}")
+        k_lat = self.lateral_stiffness_N_per_m
+        if k_lat is not None and not (math.isfinite(k_lat) and k_lat > 0):
+            raise ValueError("GripperSpec.lateral_stiffness_N_per_m: expected > 0 or None, "
+                             f"found {k_lat}")
         if self.pad_spinning_friction is not None and not (
             math.isfinite(self.pad_spinning_friction) and self.pad_spinning_friction >= 0
         ):
@@ -286,6 +302,11 @@ class Gripper:
                                                  spec.synchronisation_max_force_N,
                                                  spec.synchronisation_erp)
         self.command_open(spec.max_opening_m if opening_m is None else opening_m)
+
+    @property
+    def coupling(self) -> int | None:
+        """The synchronising gear constraint's id (None: floating jaws)."""
+        return self._coupling
 
     # ---------------------------------------------------------------- geometry
     def travel_for_opening(self, opening_m: float) -> float:
