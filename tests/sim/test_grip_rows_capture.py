@@ -22,7 +22,8 @@ from bench.grip_rows_trace import rigid_jaw_depths_m, run_peg
 pytestmark = pytest.mark.slow
 
 
-def _peg_step(preset: str, grip_rows: bool, lateral_m: tuple[float, float]):  # type: ignore[no-untyped-def]
+def _peg_step(preset: str, grip_rows: bool, lateral_m: tuple[float, float],  # type: ignore[no-untyped-def]
+              lateral_stiffness_N_per_m: float | None = None):
     from asmplan.knowledge.loader import load_product
     from asmplan.parts.models import ProductGeometry
     from asmplan.planner.plan import assembly_state
@@ -39,8 +40,18 @@ def _peg_step(preset: str, grip_rows: bool, lateral_m: tuple[float, float]):  # 
     (k,) = [i for i, s in enumerate(plan.steps) if s.part == "peg"]
     closing = plan.steps[k].trajectory.T_world_gripper[-1][:3, 1]
     fid = dataclasses.replace(named(preset), grip_rows=grip_rows)
-    res = simulate_placed_step(plan.steps[k], assembly_state(plan, k), product, geometry, fid,
-                               criteria=criteria_for(product), pose_error=PoseError(lateral_m))
+    import asmplan.sim.simulate as simulate_module
+    from asmplan.sim.scene import gripper_spec
+
+    def spec(resource, max_commanded_N=0.0):  # type: ignore[no-untyped-def]
+        return dataclasses.replace(gripper_spec(resource, max_commanded_N),
+                                   lateral_stiffness_N_per_m=lateral_stiffness_N_per_m)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(simulate_module, "gripper_spec", spec)
+        res = simulate_placed_step(plan.steps[k], assembly_state(plan, k), product, geometry,
+                                   fid, criteria=criteria_for(product),
+                                   pose_error=PoseError(lateral_m))
     return product, closing, res
 
 
@@ -93,3 +104,17 @@ def test_rows_hold_a_pin_offset_across_the_closing_axis_in_the_pads() -> None:
     result, _, _ = run_peg("balanced", True, (e, 0.0))
     assert result["success"] is True, result["reasons"]
     assert result["outcome"]["max_slip_m"] < 2.0 * e
+
+
+@pytest.mark.parametrize("k_N_per_m", [1000.0, 20000.0])
+def test_a_stated_lateral_compliance_lets_the_closing_axis_offset_in(k_N_per_m: float) -> None:
+    """BALANCED with the rows and the jaws on a spring across the closing axis
+    (`GripperSpec.lateral_stiffness_N_per_m`, docs/physics.md "The cell's lateral
+    compliance"): the same 0.05 mm along the closing axis that jams rigid jaws (above) goes in,
+    the chamfer pushing the jaws over by the offset beyond c/2 (41.5 um: 0.04 N at 1 kN/m,
+    0.83 N at 20 kN/m). Measured: slip 0.010 mm at 1000 N/m, 0.131 mm at 20000 N/m; a stiff
+    cell's 1e6 N/m jams as rigid jaws do (9.841 mm, not asserted here)."""
+    e = 0.05e-3
+    _, _, res = _peg_step("balanced", True, (0.0, -e), k_N_per_m)
+    assert res.success is True, res.reasons
+    assert res.outcome.max_slip_m < 0.2e-3
