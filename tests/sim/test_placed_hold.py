@@ -12,9 +12,7 @@ from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.fidelity import BALANCED
 from asmplan.sim.placed_hold import PlacedHold
 from bench.scenarios import box_inertia, box_piece
-
-A_SIZE = (0.02, 0.02, 0.02)
-B_SIZE = (0.01, 0.01, 0.01)
+from tests.sim.cube_scenes import A_SIZE, B_SIZE, cube_and_pusher
 
 
 def _push_scene(hold: bool, b_is_gripper: bool) -> tuple[np.ndarray, PlacedHold | None, float]:
@@ -24,15 +22,7 @@ def _push_scene(hold: bool, b_is_gripper: bool) -> tuple[np.ndarray, PlacedHold 
     (the gripper then a body far away). Returns A's displacement, the hold and B's speed at
     the end."""
     with BulletWorld(BALANCED) as world:
-        world.add_ground()
-        Ta = np.eye(4)
-        Ta[2, 3] = A_SIZE[2] / 2
-        a = world.add_body((box_piece(A_SIZE),), 0.1, Ta, inertia_kgm2=box_inertia(0.1, A_SIZE),
-                           name="A")
-        Tb = np.eye(4)
-        Tb[:3, 3] = (-0.045, 0.0, B_SIZE[2] / 2)
-        b = world.add_body((box_piece(B_SIZE),), 0.2, Tb, inertia_kgm2=box_inertia(0.2, B_SIZE),
-                           friction=0.0, name="B")
+        a, b, Ta = cube_and_pusher(world)
         Tf = np.eye(4)
         Tf[:3, 3] = (0.5, 0.5, B_SIZE[2] / 2)
         far = world.add_body((box_piece(B_SIZE),), 0.1, Tf, inertia_kgm2=box_inertia(0.1, B_SIZE),

@@ -11,9 +11,7 @@ from asmplan.sim.bullet import BulletWorld
 from asmplan.sim.fidelity import BALANCED
 from asmplan.sim.rest import RestKeeper
 from bench.scenarios import box_inertia, box_piece
-
-A_SIZE = (0.02, 0.02, 0.02)
-B_SIZE = (0.01, 0.01, 0.01)
+from tests.sim.cube_scenes import B_SIZE, cube_and_pusher
 
 
 def _push_scene(keep: bool) -> tuple[np.ndarray, list[int], dict[str, int], float]:
@@ -21,15 +19,7 @@ def _push_scene(keep: bool) -> tuple[np.ndarray, list[int], dict[str, int], floa
     0.1 m/s from 30 mm away (face to face). Returns A's displacement, the record rows at which A was at
     zero velocity, the keeper's sleep counts and B's speed at the end."""
     with BulletWorld(BALANCED) as world:
-        world.add_ground()
-        Ta = np.eye(4)
-        Ta[2, 3] = A_SIZE[2] / 2
-        a = world.add_body((box_piece(A_SIZE),), 0.1, Ta, inertia_kgm2=box_inertia(0.1, A_SIZE),
-                           name="A")
-        Tb = np.eye(4)
-        Tb[:3, 3] = (-0.045, 0.0, B_SIZE[2] / 2)
-        b = world.add_body((box_piece(B_SIZE),), 0.2, Tb, inertia_kgm2=box_inertia(0.2, B_SIZE),
-                           friction=0.0, name="B")
+        a, b, Ta = cube_and_pusher(world)
         world.set_velocity(b, (0.1, 0.0, 0.0), (0.0, 0.0, 0.0))
         keeper = RestKeeper(world, b, a) if keep else None
         still = []
