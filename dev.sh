@@ -68,8 +68,23 @@ setup() {
     "$venv/bin/python" -m compileall -q knowledge parts planner sim report asmplan examples bench >/dev/null
 }
 
+# OpenBLAS (under numpy and scipy) picks its kernels by CPU, and they round differently in
+# the last bit: a plan, and through it a knife-edge verdict, can differ between machines
+# (docs/physics.md, Known limits). Use the SkylakeX kernels where the CPU has AVX-512 (the
+# goldens' and the benchmarks' kernels; tests/conftest.py does the same), replacing a kernel
+# the environment sets; elsewhere leave OpenBLAS its choice.
+pin_blas_kernels() {
+    local flags
+    flags=$(grep -m1 '^flags' /proc/cpuinfo 2>/dev/null || true)
+    for f in avx512f avx512cd avx512bw avx512dq avx512vl; do
+        case " $flags " in *" $f "*) ;; *) return 0 ;; esac
+    done
+    export OPENBLAS_CORETYPE=SkylakeX
+}
+
 cmd=${1:-run}
 [ $# -gt 0 ] && shift
+pin_blas_kernels
 case "$cmd" in
     setup) setup ;;
     run)

@@ -16,7 +16,8 @@ def _pin_openblas_kernels() -> None:
     (the gear unit's shaft at FAST, the gearbox shaft at BALANCED; docs/physics.md). With
     OPENBLAS_CORETYPE=SkylakeX the EPYC reproduces the goldens bit for bit. Every test process
     uses the SkylakeX kernels where the CPU has AVX-512, else Haswell's (AVX2 + FMA: the
-    goldens then do not apply, tests/test_golden.py skips). It replaces a kernel set in the
+    goldens then do not apply, tests/test_golden.py skips); dev.sh does the same for every
+    command. It replaces a kernel set in the
     environment (this machine kind sets OPENBLAS_CORETYPE=Haswell for every process), and must
     be set before numpy loads OpenBLAS."""
     if "numpy" in sys.modules:
