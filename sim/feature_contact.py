@@ -140,10 +140,10 @@ class HeldFitContact:
         mass, T_link_inertial, inertia_link = world.rigid_properties(held_body)
         self._mass = mass
         self._com_link = T_link_inertial[:3, 3].copy()
-        w, V = np.linalg.eigh(inertia_link)
-        self._inv_sqrt_inertia_link = V @ np.diag(1.0 / np.sqrt(w)) @ V.T
-        self._minv_sqrt_linear = np.zeros((6, 6))  # M^(-1/2)'s linear block, rotation's zero
-        self._minv_sqrt_linear[:3, :3] = np.eye(3) / math.sqrt(mass)
+        self._minv_sqrt_linear, self._inv_sqrt_inertia_link = _minv_sqrt_parts(mass,
+                                                                               inertia_link)
+        # a dynamic partner's (mass, link-to-inertial pose, M^(-1/2) parts), read once
+        self._partner_inertia: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._partners = sorted({p.partner for p in self.pairs})
         self._dynamic = {b: not world.is_static(b) for b in self._partners}
         self._reach = max(p.model.pin.length_m + p.model.pin.radius_m
@@ -489,7 +489,10 @@ class HeldFitContact:
         on_pad = np.isin(con.link_b, self._grip[1]) & (con.normal_force_N > 0.0)
         if not np.any(on_pad):
             return False
-        mass, T_li, I_link = world.rigid_properties(b)
+        if b not in self._partner_inertia:
+            mass, T_li, I_link = world.rigid_properties(b)
+            self._partner_inertia[b] = (T_li, *_minv_sqrt_parts(mass, I_link))
+        T_li, minv_linear, inv_sqrt_link = self._partner_inertia[b]
         T_p = world.pose(b)
         R_p = T_p[:3, :3]
         c_p = R_p @ T_li[:3, 3] + T_p[:3, 3]
@@ -497,10 +500,8 @@ class HeldFitContact:
         v_held_at = u_held[:3] + np.cross(u_held[3:], c_p - c_held)
         u_rel = np.concatenate([v_p - v_held_at, w_p - u_held[3:]])
         R_i = R_p @ T_li[:3, :3]
-        ev, V = np.linalg.eigh(R_i @ I_link @ R_i.T)
-        Minv_sqrt = np.zeros((6, 6))
-        Minv_sqrt[:3, :3] = np.eye(3) / math.sqrt(mass)
-        Minv_sqrt[3:, 3:] = V @ np.diag(1.0 / np.sqrt(ev)) @ V.T
+        Minv_sqrt = minv_linear.copy()
+        Minv_sqrt[3:, 3:] = R_i @ inv_sqrt_link @ R_i.T
         # the partner's own supports (Bullet's contacts with every other body, touching):
         # the correction may not push it further into them than Bullet's step left it
         sup = world.contacts(b)
@@ -688,6 +689,16 @@ class HeldFitContact:
             if found[0].count == 0 or float(np.min(found[0].gap_m)) >= -PROJECTION_TOLERANCE_M:
                 break
         return T, found
+
+
+def _minv_sqrt_parts(mass: float, inertia_link: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A rigid body's M^(-1/2) in two parts: the (6, 6) matrix with its linear block
+    (1/sqrt(mass) I) and a zero rotational block, and the rotational block in the inertial
+    frame, I^(-1/2) (3, 3), to be turned into the world as R I^(-1/2) R^T."""
+    w, V = np.linalg.eigh(inertia_link)
+    linear = np.zeros((6, 6))
+    linear[:3, :3] = np.eye(3) / math.sqrt(mass)
+    return linear, V @ np.diag(1.0 / np.sqrt(w)) @ V.T
 
 
 def grip_utilisation(pads: Contacts, mu: float, force_N: np.ndarray, point_m: np.ndarray
